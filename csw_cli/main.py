@@ -1,0 +1,23 @@
+"""The ``csw`` command group: a thin group, one module per command."""
+
+import click
+
+from . import __version__
+from .match import match
+from .synth_cmd import synth
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="csw")
+def cli():
+    """Stereo matching with the Constrained Sliding Window (CSW) algorithm.
+
+    \b
+    Examples:
+      csw synth out/scene
+      csw match out/scene/left.png out/scene/right.png -o out/disp.pfm --csw
+    """
+
+
+cli.add_command(match)
+cli.add_command(synth)

@@ -1,0 +1,52 @@
+"""Options shared by several commands, defined once (as rasterio's rio/options.py)."""
+
+import click
+
+
+class TauType(click.ParamType):
+    """tau: a number, or 'auto' for the paper's histogram rule."""
+
+    name = "tau"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, (int, float)) or value == "auto":
+            return value
+        try:
+            return float(value)
+        except ValueError:
+            self.fail(f"{value!r} is not a number or 'auto'", param, ctx)
+
+
+def cost_option(multiple=False):
+    if multiple:
+        return click.option("--cost", "costs", default="sad", show_default=True,
+                            help="Comma-separated costs from sad, ssd, shd.",
+                            callback=_split_costs)
+    return click.option("--cost", type=click.Choice(["sad", "ssd", "shd"]), default="sad",
+                        show_default=True, help="Matching cost.")
+
+
+def _split_costs(ctx, param, value):
+    costs = [c.strip().lower() for c in value.split(",") if c.strip()]
+    bad = [c for c in costs if c not in ("sad", "ssd", "shd")]
+    if bad or not costs:
+        raise click.BadParameter(f"unknown cost {', '.join(bad) or value!r}; use sad, ssd, shd")
+    return costs
+
+
+window_option = click.option("--window", "-w", type=int, default=9, show_default=True,
+                             help="Odd window side (9 = the paper's 9x9).")
+dmin_option = click.option("--dmin", type=int, default=0, show_default=True,
+                           help="Smallest disparity searched.")
+dmax_option = click.option("--dmax", type=int, default=64, show_default=True,
+                           help="Largest disparity searched (less than the width).")
+threads_option = click.option("--threads", "-j", type=click.IntRange(min=1), default=None,
+                              help="Threads for row-parallel matching [default: all cores].")
+csw_option = click.option("--csw/--no-csw", default=False, show_default=True,
+                          help="Skip right pixels already claimed by a confident match.")
+tau_option = click.option("--tau", type=TauType(), default="auto", show_default=True,
+                          help="CSW threshold on the minimum cost: a number, or 'auto' for "
+                               "the paper's rule (width of the first of 10 histogram bins).")
+format_option = click.option(
+    "--format", "fmt", type=click.Choice(["table", "github", "latex", "csv", "json"]),
+    default="table", show_default=True, help="Output format of the table on stdout.")

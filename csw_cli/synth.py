@@ -1,0 +1,152 @@
+"""A deterministic synthetic stereo scene with exact ground truth.
+
+The scene is a stack of textured planar layers seen by a rectified pair.  Each layer has
+an affine disparity d(x, y) = a*x + b*y + c in left-image coordinates (a = b = 0 is a
+fronto-parallel plane, a != 0 a slanted one) and a support region in the left image.
+A larger disparity is nearer the cameras.  The texture is a smooth function of the
+surface point, so the same point has the same brightness in both views, and fronto-
+parallel layers with integer disparity appear shifted by exactly d pixels.
+
+Rendering is exact ray casting, not warping:
+  left pixel (x, y):   the nearest layer whose support contains (x, y);
+  right pixel (xr, y): for each layer, the left coordinate x = (xr + b*y + c) / (1 - a)
+                       that lands on xr; the nearest layer that contains it wins.
+A left pixel is occluded when the nearest surface at its right position is another layer
+(or it falls outside the right image).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class Layer:
+    a: float  # disparity slope along x
+    b: float  # disparity slope along y
+    c: float  # disparity offset
+    x0: float  # support: an axis-aligned box (x0..x1, y0..y1) in left coordinates,
+    x1: float  # or an ellipse inscribed in it when ``round`` is set
+    y0: float
+    y1: float
+    round: bool
+    seed: int
+
+    def disparity(self, x, y):
+        return self.a * x + self.b * y + self.c
+
+    def contains(self, x, y):
+        if self.round:
+            cx, cy = (self.x0 + self.x1) / 2, (self.y0 + self.y1) / 2
+            rx, ry = (self.x1 - self.x0) / 2, (self.y1 - self.y0) / 2
+            return ((x - cx) / rx) ** 2 + ((y - cy) / ry) ** 2 <= 1.0
+        return (x >= self.x0) & (x <= self.x1) & (y >= self.y0) & (y <= self.y1)
+
+
+def _value_noise(seed, x, y, cell):
+    """Smooth random texture in 0..1: bilinear interpolation of a random lattice."""
+    rng = np.random.default_rng(seed)
+    lattice = rng.random((64, 64))
+    gx, gy = x / cell, y / cell
+    ix, iy = np.floor(gx).astype(np.int64), np.floor(gy).astype(np.int64)
+    fx, fy = gx - ix, gy - iy
+    v00 = lattice[iy % 64, ix % 64]
+    v01 = lattice[iy % 64, (ix + 1) % 64]
+    v10 = lattice[(iy + 1) % 64, ix % 64]
+    v11 = lattice[(iy + 1) % 64, (ix + 1) % 64]
+    return (v00 * (1 - fx) + v01 * fx) * (1 - fy) + (v10 * (1 - fx) + v11 * fx) * fy
+
+
+def texture(layer, x, y):
+    """Brightness 0..255 of the layer's surface point seen at left coords (x, y)."""
+    v = (0.45 * _value_noise(layer.seed, x, y, 2.0)
+         + 0.35 * _value_noise(layer.seed + 1, x, y, 6.0)
+         + 0.20 * _value_noise(layer.seed + 2, x, y, 17.0))
+    # Each layer has its own mean brightness so the objects stand out to a viewer.
+    mean = 60.0 + (layer.seed % 1000) / 1000.0 * 140.0
+    return mean + 150.0 * (v - 0.5)
+
+
+def make_layers(width, height, dmax, seed):
+    """Back to front: a slanted background, then fronto-parallel boxes and discs."""
+    rng = np.random.default_rng(seed)
+    top = max(dmax, 4)
+    # Background: slanted plane spanning roughly [0.05, 0.3] * dmax left to right.
+    lo, hi = 0.05 * top, 0.3 * top
+    a = (hi - lo) / max(width - 1, 1)
+    layers = [Layer(a, 0.0, lo, -1e9, 1e9, -1e9, 1e9, False, int(rng.integers(1 << 30)))]
+    # Foreground objects at integer disparities, nearer ones later.
+    depths = np.linspace(0.4 * top, 0.9 * top, 4)
+    for i, d in enumerate(depths):
+        w = rng.uniform(0.18, 0.32) * width
+        h = rng.uniform(0.25, 0.45) * height
+        x0 = rng.uniform(0.1 * width, 0.9 * width - w)
+        y0 = rng.uniform(0.05 * height, 0.95 * height - h)
+        layers.append(Layer(0.0, 0.0, float(np.round(d)), x0, x0 + w, y0, y0 + h,
+                            bool(i % 2), int(rng.integers(1 << 30))))
+    return layers
+
+
+def render(width=450, height=375, dmax=64, seed=0):
+    """Render the scene.
+
+    Returns (left uint8 (H, W), right uint8 (H, W), gt float32 (H, W) left disparity,
+    nonocc bool (H, W): True where the left pixel is visible in the right image).
+    """
+    if width < 8 or height < 8:
+        raise ValueError("the synthetic scene needs at least 8x8 pixels")
+    if not 1 <= dmax < width:
+        raise ValueError(f"dmax must be between 1 and width - 1 ({width - 1})")
+    layers = make_layers(width, height, dmax, seed)
+    ys, xs = np.mgrid[0:height, 0:width].astype(np.float64)
+
+    # Left view: nearest layer covering each pixel.  Layers are back to front, and nearer
+    # layers have larger disparity, so later layers overwrite earlier ones.
+    owner = np.full((height, width), -1)
+    gt = np.zeros((height, width))
+    for k, layer in enumerate(layers):
+        inside = layer.contains(xs, ys)
+        d = layer.disparity(xs, ys)
+        take = inside & ((owner < 0) | (d > gt))
+        owner[take], gt[take] = k, d[take]
+    left = np.zeros((height, width))
+    for k, layer in enumerate(layers):
+        sel = owner == k
+        left[sel] = texture(layer, xs[sel], ys[sel])
+
+    # Right view: for each layer, the left coordinate that projects to xr.
+    right_d = np.full((height, width), -np.inf)
+    right = np.zeros((height, width))
+    for layer in layers:
+        x_left = (xs + layer.b * ys + layer.c) / (1.0 - layer.a)
+        inside = layer.contains(x_left, ys)
+        d = layer.disparity(x_left, ys)
+        take = inside & (d > right_d)
+        right_d[take] = d[take]
+        right[take] = texture(layer, x_left[take], ys[take])
+
+    # Occlusion: the right image, at the left pixel's match, shows a nearer surface.
+    xr = xs - gt
+    visible = xr >= 0
+    xr_near = np.clip(np.round(xr).astype(np.int64), 0, width - 1)
+    shown = right_d[ys.astype(np.int64), xr_near]
+    nonocc = visible & (shown <= gt + 0.5)
+    to8 = lambda img: np.clip(np.round(img), 0, 255).astype(np.uint8)  # noqa: E731
+    return to8(left), to8(right), gt.astype(np.float32), nonocc
+
+
+def write_scene(directory, width=450, height=375, dmax=64, seed=0):
+    """Write left.png, right.png, gt.pfm (all pixels known) and nonocc.png (255 where
+    the left pixel is visible in the right image, Middlebury's mask convention)."""
+    from pathlib import Path
+
+    from .imageio_utils import write_float_pfm, write_png
+
+    left, right, gt, nonocc = render(width, height, dmax, seed)
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    write_png(directory / "left.png", left)
+    write_png(directory / "right.png", right)
+    write_float_pfm(directory / "gt.pfm", gt)
+    write_png(directory / "nonocc.png", (nonocc * 255).astype(np.uint8))
+    return left, right, gt, nonocc

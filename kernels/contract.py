@@ -1,0 +1,156 @@
+"""The matching contract shared by every engine: cost codes, input checks, results.
+
+Every engine in this package computes exactly the same thing (see README, "The matching
+contract"). This module holds the part they share: the public names of the costs, the
+validation that runs once at the door, and the result type.
+"""
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+SAD, SSD, SHD = 0, 1, 2
+COSTS = {"sad": SAD, "ssd": SSD, "shd": SHD}
+
+# Rules that decide which CSW matches mark their right pixel.  "literal" is the paper's:
+# mark when the minimum cost m <= tau.
+RULE_LITERAL = 0
+RULES = {"literal": RULE_LITERAL}
+
+# One invalid-disparity convention everywhere: -1 in integer maps (inf in PFM files).
+INVALID = -1
+
+
+@dataclass
+class MatchResult:
+    """What a matcher returns.
+
+    disparity: int32 (H, W); the chosen d, or INVALID (-1) where no candidate was left.
+    min_cost:  int64 (H, W); the minimum cost m at the chosen d, or -1 where invalid.
+    evaluated: number of (pixel, d) candidates whose cost was evaluated.
+    candidates: number of candidates plain matching evaluates on the same rows, so
+        ``1 - evaluated / candidates`` is the share of work CSW skipped.
+    """
+
+    disparity: np.ndarray
+    min_cost: np.ndarray
+    evaluated: int
+    candidates: int
+
+    @property
+    def work_saved(self) -> float:
+        """Share (0..1) of plain matching's candidate evaluations that were skipped."""
+        return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
+
+
+@dataclass
+class Params:
+    """Validated, normalised matching parameters (see :func:`validate`)."""
+
+    window: int
+    dmin: int
+    dmax: int
+    cost: int
+    csw: bool
+    tau: int
+    rule: int
+    rows: np.ndarray  # int64 (n,), the rows to match, ascending
+
+
+def _as_image(name, image):
+    image = np.asarray(image)
+    if image.ndim != 2:
+        raise ValueError(
+            f"{name} image must be 2-D grayscale (H, W), got shape {image.shape}; "
+            "convert colour images to gray first"
+        )
+    if image.dtype not in (np.uint8, np.uint16):
+        raise ValueError(
+            f"{name} image must be uint8 or uint16, got {image.dtype}; "
+            "change the dtype with .astype(np.uint8) or .astype(np.uint16)"
+        )
+    return np.ascontiguousarray(image)
+
+
+def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal", rows=None):
+    """Check the inputs once and return ``(left, right, Params)``; raise ValueError.
+
+    left, right: uint8 or uint16 (H, W), equal shapes and dtypes.
+    Every message says how to fix the input.
+    """
+    left = _as_image("left", left)
+    right = _as_image("right", right)
+    if left.shape != right.shape:
+        raise ValueError(
+            f"left and right images differ in size: {left.shape[1]}x{left.shape[0]} vs "
+            f"{right.shape[1]}x{right.shape[0]}; stereo pairs must be rectified to one size"
+        )
+    if left.dtype != right.dtype:
+        raise ValueError(
+            f"left is {left.dtype} but right is {right.dtype}; give both the same bit depth"
+        )
+    height, width = left.shape
+    if isinstance(window, bool) or int(window) != window:
+        raise ValueError(f"window must be an odd whole number, got {window!r}")
+    window = int(window)
+    if window < 1 or window % 2 == 0:
+        raise ValueError(f"window must be odd and at least 1 (e.g. 9), got {window}")
+    if window > min(height, width):
+        raise ValueError(
+            f"window {window} is larger than the image ({width}x{height}); use a smaller window"
+        )
+    dmin, dmax = int(dmin), int(dmax)
+    if dmin < 0:
+        raise ValueError(f"dmin must be >= 0, got {dmin}")
+    if dmin > dmax:
+        raise ValueError(f"dmin ({dmin}) must not exceed dmax ({dmax})")
+    if dmax >= width:
+        raise ValueError(
+            f"dmax ({dmax}) must be less than the image width ({width}); lower dmax"
+        )
+    if cost not in COSTS:
+        raise ValueError(f"cost must be one of {', '.join(COSTS)}, got {cost!r}")
+    if rule not in RULES:
+        raise ValueError(f"CSW rule must be one of {', '.join(RULES)}, got {rule!r}")
+    # Costs are integers, so m <= tau is the same test as m <= floor(tau).
+    tau = float(tau)
+    if np.isnan(tau):
+        raise ValueError("tau must be a number, got NaN")
+    tau = int(np.clip(np.floor(tau), -1, np.iinfo(np.int64).max // 2))
+    if rows is None:
+        rows = np.arange(height, dtype=np.int64)
+    else:
+        rows = np.asarray(rows, dtype=np.int64)
+        if rows.ndim != 1 or (rows.size and (rows.min() < 0 or rows.max() >= height)):
+            raise ValueError(f"rows must be a 1-D list of row indices in 0..{height - 1}")
+        if np.any(np.diff(rows) <= 0):
+            raise ValueError("rows must be strictly increasing")
+    params = Params(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule], rows)
+    return left, right, params
+
+
+def candidate_count(width, dmin, dmax):
+    """Candidates plain matching evaluates on one row of ``width`` pixels."""
+    # Pixel x has the candidates d in [dmin, min(dmax, x)].
+    x = np.arange(width)
+    return int(np.clip(np.minimum(dmax, x) - dmin + 1, 0, None).sum())
+
+
+class thread_count:
+    """Context manager: run Numba's parallel regions with ``n`` threads (None = all)."""
+
+    def __init__(self, n):
+        limit = numba.config.NUMBA_NUM_THREADS
+        if n is not None and not 1 <= int(n) <= limit:
+            raise ValueError(f"threads must be between 1 and {limit}, got {n}")
+        self.n = limit if n is None else int(n)
+
+    def __enter__(self):
+        self.previous = numba.get_num_threads()
+        numba.set_num_threads(self.n)
+        return self
+
+    def __exit__(self, *exc):
+        numba.set_num_threads(self.previous)
+        return False

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# The whole test suite. pytest's exit code 5 ("no tests collected") is a failure here.
+set -uo pipefail
+set -x
+python -m pytest "$@"
+status=$?
+set +x
+if [ "$status" -eq 5 ]; then
+    echo "scripts/test.sh: pytest collected no tests; that is a failure" >&2
+    exit 1
+fi
+exit "$status"

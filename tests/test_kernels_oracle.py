@@ -1,0 +1,84 @@
+"""Every engine equals the brute-force oracle exactly (tests/oracle.py)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import kernels
+from oracle import oracle_match
+
+ENGINES = sorted(kernels.ENGINES)
+
+
+def random_pair(rng, height, width, dtype, shift=3, noise=0):
+    """A random pair where right is left shifted by ``shift`` plus noise."""
+    top = 256 if dtype == np.uint8 else 65536
+    left = rng.integers(0, top, (height, width), dtype=np.int64)
+    right = np.roll(left, -shift, axis=1) + rng.integers(-noise, noise + 1, left.shape)
+    return left.astype(dtype), np.clip(right, 0, top - 1).astype(dtype)
+
+
+def assert_equal_to_oracle(engine, left, right, **kw):
+    got = kernels.match(left, right, engine=engine, **kw)
+    disp, mins, evaluated = oracle_match(left, right, kw["window"], kw["dmin"], kw["dmax"],
+                                         kw["cost"], kw.get("csw", False), kw.get("tau", -1))
+    np.testing.assert_array_equal(got.disparity, disp)
+    np.testing.assert_array_equal(got.min_cost, mins)
+    assert got.evaluated == evaluated
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("cost", ["sad", "ssd", "shd"])
+@pytest.mark.parametrize("window", [1, 3, 9])
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_matches_oracle_plain_and_csw(engine, cost, window, dtype):
+    rng = np.random.default_rng(window * 7 + len(cost))
+    left, right = random_pair(rng, 11, 23, dtype, shift=2, noise=20)
+    # dmax reaches past the left border for the first columns; dmin > 0 in one run.
+    for dmin, dmax in [(0, 7), (2, 9)]:
+        assert_equal_to_oracle(engine, left, right, window=window, dmin=dmin, dmax=dmax,
+                               cost=cost)
+        # tau from the plain min-cost distribution: the low quartile marks some pixels.
+        plain = kernels.match(left, right, engine=engine, window=window, dmin=dmin,
+                              dmax=dmax, cost=cost)
+        for q in (25, 75):
+            tau = float(np.percentile(plain.min_cost[plain.min_cost >= 0], q))
+            assert_equal_to_oracle(engine, left, right, window=window, dmin=dmin, dmax=dmax,
+                                   cost=cost, csw=True, tau=tau)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    engine=st.sampled_from(ENGINES),
+    seed=st.integers(0, 2**32 - 1),
+    height=st.integers(1, 9),
+    width=st.integers(2, 20),
+    window=st.sampled_from([1, 3, 5]),
+    cost=st.sampled_from(["sad", "ssd", "shd"]),
+    sixteen=st.booleans(),
+    csw=st.booleans(),
+    tau_quantile=st.floats(0, 100),
+    data=st.data(),
+)
+def test_matches_oracle_hypothesis(engine, seed, height, width, window, cost, sixteen, csw,
+                                   tau_quantile, data):
+    window = min(window, height if height % 2 else height - 1, width if width % 2 else width - 1)
+    if window < 1:
+        window = 1
+    dmax = data.draw(st.integers(0, width - 1))
+    dmin = data.draw(st.integers(0, dmax))
+    rng = np.random.default_rng(seed)
+    dtype = np.uint16 if sixteen else np.uint8
+    # Few grey levels make ties frequent, which exercises the smallest-d rule.
+    levels = data.draw(st.sampled_from([2, 4, 256]))
+    left = (rng.integers(0, levels, (height, width)) * (255 // (levels - 1))).astype(dtype)
+    right = (rng.integers(0, levels, (height, width)) * (255 // (levels - 1))).astype(dtype)
+    if sixteen:
+        left, right = left * 257, right * 257
+    plain = kernels.match(left, right, engine=engine, window=window, dmin=dmin, dmax=dmax,
+                          cost=cost)
+    valid = plain.min_cost[plain.min_cost >= 0]
+    tau = float(np.percentile(valid, tau_quantile)) if valid.size else 0.0
+    assert_equal_to_oracle(engine, left, right, window=window, dmin=dmin, dmax=dmax,
+                           cost=cost, csw=csw, tau=tau)
