@@ -3,7 +3,11 @@
 import click
 
 from . import __version__
+from .bench import bench
+from .datasets_cmd import datasets
+from .hist import hist
 from .match import match
+from .score_cmd import score_cmd
 from .synth_cmd import synth
 
 
@@ -19,5 +23,9 @@ def cli():
     """
 
 
+cli.add_command(bench)
+cli.add_command(datasets)
+cli.add_command(hist)
 cli.add_command(match)
+cli.add_command(score_cmd, name="score")
 cli.add_command(synth)

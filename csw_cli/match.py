@@ -9,8 +9,16 @@ import numpy as np
 
 from . import options as opt
 from .engine import estimate_tau, run_match, warm_up
-from .imageio_utils import (OUTPUT_SUFFIXES, PNG_MAX_DISPARITY, ImageError, colorize,
-                            read_image, write_disparity, write_float_pfm, write_png)
+from .imageio_utils import (
+    OUTPUT_SUFFIXES,
+    PNG_MAX_DISPARITY,
+    ImageError,
+    colorize,
+    read_image,
+    write_disparity,
+    write_float_pfm,
+    write_png,
+)
 
 
 def check_output(path, suffixes, param_hint):

@@ -50,3 +50,26 @@ tau_option = click.option("--tau", type=TauType(), default="auto", show_default=
 format_option = click.option(
     "--format", "fmt", type=click.Choice(["table", "github", "latex", "csv", "json"]),
     default="table", show_default=True, help="Output format of the table on stdout.")
+
+
+def _dataset_names():
+    from .datasets import names
+
+    return names()
+
+
+data_dir_option = click.option(
+    "--data-dir", type=click.Path(file_okay=False), envvar="CSW_DATA_DIR",
+    help="Folder holding the datasets (default: $CSW_DATA_DIR, then the user cache, then "
+         "a download from the official Middlebury URLs).")
+download_option = click.option(
+    "--download/--no-download", default=True, show_default=True,
+    help="Download missing dataset files from the official URLs into the user cache.")
+
+
+def dataset_option(multiple=True, required=True):
+    return click.option("--dataset", "-d", "datasets" if multiple else "dataset",
+                        multiple=multiple, required=required,
+                        type=click.Choice(_dataset_names()),
+                        help="A registered dataset (see 'csw datasets')"
+                             + ("; repeat for several." if multiple else "."))

@@ -42,7 +42,8 @@ def _window_cost(left_p, right_p, top, xl, xr, w, cost):
     else:
         for a in range(w):
             for b in range(w):
-                total += popcount16(np.int64(left_p[top + a, xl + b]) ^ np.int64(right_p[top + a, xr + b]))
+                bits = np.int64(left_p[top + a, xl + b]) ^ np.int64(right_p[top + a, xr + b])
+                total += popcount16(bits)
     return total
 
 

@@ -1,4 +1,3 @@
-import numpy as np
 import pytest
 
 from csw_cli.imageio_utils import write_png
@@ -18,3 +17,24 @@ def pair_files(tmp_path, small_scene):
     write_png(tmp_path / "left.png", left)
     write_png(tmp_path / "right.png", right)
     return tmp_path / "left.png", tmp_path / "right.png"
+
+
+@pytest.fixture(scope="session")
+def data_dir():
+    """The Middlebury data folder from CSW_DATA_DIR.
+
+    Missing data skips the test with the reason, except where CSW_REQUIRE_DATA=1 (CI),
+    where it fails: CI must never pass by skipping the real-data checks.
+    """
+    import os
+    from pathlib import Path
+
+    value = os.environ.get("CSW_DATA_DIR")
+    folder = Path(value) if value else None
+    if folder is None or not (folder / "tsukuba").is_dir():
+        reason = (f"Middlebury data not found (CSW_DATA_DIR={value!r}); point CSW_DATA_DIR "
+                  "at a folder laid out like ../shared/datasets")
+        if os.environ.get("CSW_REQUIRE_DATA") == "1":
+            pytest.fail(reason)
+        pytest.skip(reason)
+    return folder

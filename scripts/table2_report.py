@@ -1,0 +1,226 @@
+"""Write reports/table2.md: the paper's TABLE II measured here, beside the paper's figures.
+
+Run by scripts/reproduce_table2.sh (make bench). Every figure comes from `csw bench
+--format json` in this run; the statements under each table are computed from them.
+"""
+
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from csw_cli import __version__
+from csw_cli import datasets as D
+from csw_cli.imageio_utils import read_image
+
+REPEAT = os.environ.get("CSW_BENCH_REPEAT", "5")
+
+
+def bench(*args):
+    cmd = ["csw", "bench", "--repeat", REPEAT, "--format", "json", *args]
+    print("+", " ".join(cmd), file=sys.stderr, flush=True)
+    out = subprocess.run(cmd, check=True, capture_output=True, text=True)
+    return json.loads(out.stdout), " ".join(cmd[:1] + cmd[1:])
+
+
+def fmt(value, digits=2):
+    return "" if value is None else f"{value:.{digits}f}"
+
+
+def table(rows, paper=True):
+    head = ["Image", "Size", "d", "Algorithm", "τ", "Error rate (%)", "nonocc bad-1 (%)",
+            "Time (s)", "Time reduced (%)", "Work saved (%)"]
+    if paper:
+        head += ["Paper error (%)", "Paper time reduced (%)"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        algo = r["cost"].upper() + (" + CSW" if r["csw"] else "")
+        nonocc = r["regions"].get("nonocc", {}).get("bad1")
+        cells = [r["dataset"], r["size"], f"{r['dmin']}..{r['dmax']}", algo,
+                 fmt(r["tau"], 0) if r["csw"] else "", fmt(r["error_rate"]), fmt(nonocc),
+                 fmt(r["time_s"], 4), fmt(r["time_reduced"]), fmt(r["work_saved"])]
+        if paper:
+            cells += [fmt(r["paper_error_rate"]), fmt(r["paper_time_reduced"])]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def verdicts(rows):
+    """One line per CSW row: does it keep the error rate, and does the time follow the
+    work saved?"""
+    out = []
+    for plain, csw in zip(rows[::2], rows[1::2], strict=True):
+        delta = csw["error_rate"] - plain["error_rate"]
+        kept = "keeps" if delta <= 0.3 else "raises"
+        line = (f"- {csw['dataset']} {csw['cost'].upper()}: CSW {kept} the error rate "
+                f"({fmt(plain['error_rate'])}% → {fmt(csw['error_rate'])}%, "
+                f"{delta:+.2f} points), skips {fmt(csw['work_saved'], 1)}% of the candidate "
+                f"costs and saves {fmt(csw['time_reduced'], 1)}% of the time.")
+        if csw["paper_error_rate"] is not None:
+            paper_delta = csw["paper_error_rate"] - plain["paper_error_rate"]
+            line += (f" Paper: {paper_delta:+.2f} points, {fmt(csw['paper_time_reduced'], 1)}% "
+                     "time saved.")
+        out.append(line)
+    return "\n".join(out)
+
+
+def beyond_150(name):
+    """Share (%) of known ground truth beyond the paper's d <= 150 at full size. The 2006
+    PNGs store disparity in full-size pixels at every size (value / size factor is the
+    disparity of the reduced image), so the stored value is the full-size disparity."""
+    ds = D.DATASETS[name]
+    raw = read_image(D.resolve(ds.gt)).astype(float)
+    known = raw > 0
+    return 100.0 * np.mean(raw[known] > 150)
+
+
+def tsukuba_plain_stats():
+    """Per cost on Tsukuba (9x9, d 0..16): the tau of the paper's own rule (the first of
+    10 histogram bins of plain m) and the smallest m."""
+    import kernels
+    from csw_cli.engine import paper_tau
+
+    pair = D.load("tsukuba")
+    stats = {}
+    for cost in ("sad", "ssd", "shd"):
+        m = kernels.match(pair.left, pair.right, window=9, dmax=16, cost=cost).min_cost
+        stats[cost] = {"rule_tau": paper_tau(m), "min_m": int(m[m >= 0].min())}
+    return stats
+
+
+def machine():
+    cpu = "unknown CPU"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    import numba
+
+    return (f"{cpu}, {os.cpu_count()} logical cores, {platform.system()} "
+            f"{platform.release()}; Python {platform.python_version()}, numba "
+            f"{numba.__version__}, numpy {np.__version__}, csw {__version__}")
+
+
+def main(path):
+    today = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    tsukuba, cmd_tsukuba = bench("-d", "tsukuba", "--preset", "paper", "--cost",
+                                 "sad,ssd,shd", "--paper-figures")
+    scenes2006 = ["wood1", "baby1", "bowling1", "baby1-half", "bowling1-half"]
+    args2006 = [a for n in scenes2006 for a in ("-d", n)]
+    preset2006, cmd_preset2006 = bench(*args2006, "--preset", "paper", "--cost", "sad")
+    # The registry range covers the ground truth, unlike the scaled paper range.
+    full2006 = []
+    cmds_full2006 = []
+    for name in scenes2006:
+        rows, cmd = bench("-d", name, "--preset", "paper", "--cost", "sad", "--dmax",
+                          str(D.DATASETS[name].dmax))
+        full2006 += rows
+        cmds_full2006.append(cmd)
+    others = ["venus", "sawtooth", "cones", "teddy", "synthetic"]
+    other_rows, cmd_others = bench(*[a for n in others for a in ("-d", n)], "--cost",
+                                   "sad,ssd,shd", "--tau", "auto")
+    shares = {n: beyond_150(n) for n in ["wood1", "baby1", "bowling1"]}
+    stats = tsukuba_plain_stats()
+    by = {(r["cost"], r["csw"]): r for r in tsukuba}
+
+    nine = tsukuba + [r for r in preset2006 if r["dataset"] in ("wood1", "baby1", "bowling1")]
+    text = f"""# TABLE II reproduced: CSW against plain window matching
+
+Generated by `scripts/reproduce_table2.sh` (`make bench`) on {today}.
+Machine: {machine()}.
+Engine: the window engine (full 9×9 sum per candidate, the paper's method), one thread,
+median of {REPEAT} interleaved plain/CSW runs after a warm-up run. Error rate is bad-1 over
+all known ground truth (invalid pixels count as bad; Tsukuba's 18-pixel border is unknown
+and left out). Work saved is the share of candidate cost evaluations CSW skipped, counted
+by the kernel: it does not depend on the machine. Times are this machine's and move from
+run to run; compare only the ratios.
+
+## The paper's nine rows
+
+Tsukuba with the paper's settings (9×9, d 0..16, τ 410/360/32), and Wood, Baby and Bowling
+with SAD and the paper's τ. The paper ran the 2006 scenes at full size with d 0..150;
+here they exist at third size only, so d is scaled to 0..50.
+
+`{cmd_tsukuba}`
+`{cmd_preset2006}`
+
+{table(nine)}
+
+{verdicts(nine)}
+
+### What reproduces on Tsukuba, and what does not
+
+- **Plain matching agrees.** bad-1 is {fmt(by['sad', False]['error_rate'])}% (SAD),
+  {fmt(by['ssd', False]['error_rate'])}% (SSD) and {fmt(by['shd', False]['error_rate'])}% (SHD)
+  here against the paper's 11.45%, 11.08% and 15.34%. The paper does not say how it
+  made gray images, handled the image border or broke ties (here: ITU-R 601-2 luma as
+  Pillow's `convert("L")`, the edge pixel repeated, the smallest d), and differences
+  there move bad-1 by about this much.
+- **The time saving reproduces.** SAD + CSW skips {fmt(by['sad', True]['work_saved'], 1)}% of
+  the candidate costs and saves {fmt(by['sad', True]['time_reduced'], 1)}% of the time (paper:
+  45.37%); SSD + CSW saves {fmt(by['ssd', True]['time_reduced'], 1)}% (paper: 28.98%). Time
+  saved tracks work saved, as it must for the window engine.
+- **The quality claim does not.** SAD + CSW raises bad-1 by
+  {by['sad', True]['error_rate'] - by['sad', False]['error_rate']:+.2f} points and SSD + CSW by
+  {by['ssd', True]['error_rate'] - by['ssd', False]['error_rate']:+.2f}, where the paper reports
+  −0.68 and +0.69. The likely mechanism: the first confident match on a row claims its
+  right pixel for good, so a left pixel scanned later whose true match was claimed by a
+  wrong (or occluded) earlier pixel can't get it back, and takes another, wrong right
+  pixel instead, which can displace the next one in turn. The paper's remark that a poor
+  claim "only leads to one unmatched pixel" does not allow for that chain.
+- **SHD at τ = 32 does almost nothing here.** The smallest SHD cost on Tsukuba is
+  {stats['shd']['min_m']} bits over the 9×9 window, so τ = 32 marks few pixels and CSW skips
+  {fmt(by['shd', True]['work_saved'], 2)}% of the work; the paper's 8.61% time saving with SHD
+  can't be reached with this τ under the contract's SHD (popcount of the XOR of 8-bit
+  gray values).
+- **τ.** The paper's own rule (width of the first of 10 bins of the plain min-cost
+  histogram) gives τ = {stats['sad']['rule_tau']:.0f} (SAD), {stats['ssd']['rule_tau']:.0f} (SSD) and
+  {stats['shd']['rule_tau']:.1f} (SHD) here, against the paper's 410, 360 and 32. SAD and SHD are close;
+  SSD's 360 is far below any SSD cost scale here (the SSD costs are squares), so the
+  paper's SSD τ cannot have come from this rule on 8-bit data.
+
+## The 2006 scenes: the scaled range does not cover the ground truth
+
+At full size, {shares['wood1']:.1f}% of Wood1's known ground truth, {shares['bowling1']:.1f}% of
+Bowling1's and {shares['baby1']:.1f}% of Baby1's lies beyond the paper's d ≤ 150 (stored
+values above 150 in `disp1.png`, which holds full-size disparities at every size). Those
+pixels can't be matched within the paper's range, so an error rate near 9% for Wood and
+Bowling is not possible with bad-1 over all known ground truth: the paper must have
+scored differently (another threshold, a mask, or a different range) than it states.
+
+With the paper's range scaled to these sizes (same command as above, half size too):
+
+{table(preset2006)}
+
+With the registry's range, which covers the ground truth (`{cmds_full2006[0]}` and
+likewise for each scene):
+
+{table(full2006)}
+
+{verdicts(full2006)}
+
+## Every other dataset
+
+SAD, SSD and SHD with the paper's τ rule (`--tau auto`: the width of the first of 10 bins
+of the plain min-cost histogram), 9×9, the registry's disparity range.
+
+`{cmd_others}`
+
+{table(other_rows, paper=False)}
+
+{verdicts(other_rows)}
+"""
+    Path(path).write_text(text)
+    print(f"wrote {path}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1] if len(sys.argv) > 1 else "reports/table2.md")
