@@ -31,6 +31,9 @@ test: $(VENV)/.installed-test
 bench: $(VENV)/.installed-dev
 	scripts/reproduce_table2.sh
 
+bench-peers: $(VENV)/.installed-dev
+	scripts/bench_peers.sh
+
 lint: $(VENV)/.installed-dev
 	scripts/lint.sh
 

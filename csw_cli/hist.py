@@ -86,7 +86,8 @@ def hist(images, dataset, cost, window, dmin, dmax, csw, tau, plot_path, threads
         left, right = load_pair(*images)
         top, title = 64, Path(images[0]).name
     top = dmax if dmax is not None else top
-    settings = dict(window=window, dmin=dmin, dmax=top, cost=cost, threads=threads)
+    settings = dict(engine="fast", window=window, dmin=dmin, dmax=top, cost=cost,
+                    threads=threads)
     plain = run_match(left, right, csw=False, tau=-1, **settings)
     rule_tau = paper_tau(plain.min_cost)
     result = plain

@@ -68,6 +68,7 @@ def write_outputs(writers):
 @click.option("--output", "-o", required=True, type=click.Path(dir_okay=False),
               help="Disparity map: .pfm (float32, inf invalid), .png (uint16 d*256, "
                    "0 invalid, KITTI) or .npy (float32, inf invalid).")
+@opt.engine_option
 @opt.cost_option()
 @opt.window_option
 @opt.dmin_option
@@ -79,7 +80,8 @@ def write_outputs(writers):
               help="Also write an 8-bit colour PNG of the map (invalid black).")
 @click.option("--cost-map", type=click.Path(dir_okay=False),
               help="Also write the minimum-cost map m as PFM (inf where invalid).")
-def match(left, right, output, cost, window, dmin, dmax, csw, tau, threads, preview, cost_map):
+def match(left, right, output, engine, cost, window, dmin, dmax, csw, tau, threads, preview,
+          cost_map):
     """Match LEFT against RIGHT (left is the reference) and write the disparity map.
 
     The match of left pixel x is right pixel x - d, for d in [DMIN, DMAX].  With --csw,
@@ -98,9 +100,9 @@ def match(left, right, output, cost, window, dmin, dmax, csw, tau, threads, prev
         raise click.BadParameter(f"{dmax} is too large for a 16-bit PNG (d*256 must fit); "
                                  "write .pfm or .npy instead", param_hint="--dmax")
     left_img, right_img = load_pair(left, right)
-    settings = dict(window=window, dmin=dmin, dmax=dmax, cost=cost, threads=threads)
-    # Validate through the kernel entry on a zero-cost path before compiling anything.
-    compile_s = warm_up(cost=cost)
+    settings = dict(engine=engine, window=window, dmin=dmin, dmax=dmax, cost=cost,
+                    threads=threads)
+    compile_s = warm_up(engine=engine, cost=cost)
     tau_note = ""
     if csw:
         if tau == "auto":
@@ -125,7 +127,8 @@ def match(left, right, output, cost, window, dmin, dmax, csw, tau, threads, prev
     invalid = 100.0 * np.mean(disp < 0)
     mode = f"CSW tau={tau:g}{tau_note}" if csw else "plain"
     click.echo(
-        f"{width}x{height} d {dmin}..{dmax} {cost.upper()} {window}x{window} {mode}: "
+        f"{width}x{height} d {dmin}..{dmax} {cost.upper()} {window}x{window} {mode} "
+        f"({engine} engine): "
         f"{seconds:.3f} s (compile {compile_s:.2f} s), evaluated "
         f"{100.0 * result.evaluated / max(result.candidates, 1):.1f}% of candidates, "
         f"invalid {invalid:.1f}%", err=True)

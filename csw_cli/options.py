@@ -73,3 +73,9 @@ def dataset_option(multiple=True, required=True):
                         type=click.Choice(_dataset_names()),
                         help="A registered dataset (see 'csw datasets')"
                              + ("; repeat for several." if multiple else "."))
+
+engine_option = click.option(
+    "--engine", type=click.Choice(["fast", "window"]), default="fast", show_default=True,
+    help="fast: running sums, O(1) per (pixel, disparity); window: a full window sum per "
+         "candidate, the paper's method, where CSW's skipped candidates save real time. "
+         "Both give identical results.")

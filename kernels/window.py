@@ -94,9 +94,11 @@ def _window_driver(left_p, right_p, rows, w, dmin, dmax, cost, csw, tau, disp, m
     return evaluated
 
 
-def pad_edge(image, h):
-    """uint16 copy of a (H, W) image padded by h on every side with its edge values."""
-    return np.pad(image.astype(np.uint16, copy=False), h, mode="edge")
+def pad_edge(image, h, dtype=np.uint16):
+    """Copy of a (H, W) image padded by h on every side with its edge values (the
+    contract's clamp), as ``dtype``: the window engine uses one uint16 kernel for 8- and
+    16-bit input; the fast engine keeps 8-bit data 8-bit."""
+    return np.pad(image.astype(dtype, copy=False), h, mode="edge")
 
 
 def match_window(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False,

@@ -1,11 +1,7 @@
 #!/usr/bin/env bash
 # The whole test suite. pytest's exit code 5 ("no tests collected") is a failure here.
 set -uo pipefail
-here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-# Real-data tests find the Middlebury pairs here unless CSW_DATA_DIR says otherwise.
-if [ -z "${CSW_DATA_DIR:-}" ] && [ -d "$here/../shared/datasets" ]; then
-    export CSW_DATA_DIR="$here/../shared/datasets"
-fi
+source "$(dirname "${BASH_SOURCE[0]}")/_data_env.sh"
 set -x
 python -m pytest "$@"
 status=$?

@@ -31,7 +31,8 @@ def synthetic_bench():
 
 
 def test_bench_json_schema(synthetic_bench):
-    assert len(synthetic_bench) == 4
+    assert len(synthetic_bench) == 8  # 2 costs x 2 engines x (plain, CSW)
+    assert [r["engine"] for r in synthetic_bench[:4]] == ["window"] * 2 + ["fast"] * 2
     for row in synthetic_bench:
         assert BENCH_KEYS <= set(row)
         assert set(row["bad"]) == {"0.5", "1", "2", "4"}
@@ -43,7 +44,7 @@ def test_bench_json_schema(synthetic_bench):
             assert row["time_reduced"] is not None and 0 <= row["work_saved"] <= 100
         else:
             assert row["tau"] is None and row["work_saved"] is None
-    assert [r["csw"] for r in synthetic_bench] == [False, True, False, True]
+    assert [r["csw"] for r in synthetic_bench] == [False, True] * 4
 
 
 def test_bench_rows_equal_the_kernels_own_output(synthetic_bench):
@@ -71,13 +72,13 @@ def test_bench_human_formats(fmt):
     assert "SAD + CSW" in result.stdout and "bench: synthetic" in result.stderr
     if fmt == "csv":
         lines = result.stdout.strip().splitlines()
-        assert lines[0].startswith("Image,Algorithm") and len(lines) == 3
+        assert lines[0].startswith("Image,Algorithm,Engine") and len(lines) == 5
 
 
 @pytest.mark.data
 def test_bench_paper_preset_on_tsukuba(data_dir):
     result = invoke("bench", "-d", "tsukuba", "--preset", "paper", "--cost", "sad,ssd,shd",
-                    "--repeat", 1, "--format", "json", "--data-dir", data_dir)
+                    "--engine", "window", "--repeat", 1, "--format", "json", "--data-dir", data_dir)
     assert result.exit_code == 0, result.output
     rows = json.loads(result.stdout)
     assert [(r["cost"], r["csw"]) for r in rows] == [
@@ -90,6 +91,7 @@ def test_bench_paper_preset_on_tsukuba(data_dir):
 
 def test_bench_bad_input():
     assert invoke("bench", "-d", "nowhere").exit_code == 2
+    assert invoke("bench", "-d", "synthetic", "--engine", "gpu").exit_code == 2
     assert invoke("bench", "-d", "synthetic", "--cost", "ncc").exit_code == 2
     result = invoke("bench", "-d", "synthetic", "--preset", "paper", "--window", 5)
     assert result.exit_code == 2 and "9x9" in result.output

@@ -1,0 +1,265 @@
+"""The fast engine: running sums, O(1) work per (pixel, disparity) whatever the window.
+
+It computes the same contract as the window engine, bit for bit (integer sums are
+exact, and the scan order and tie rule are the same), after OpenCV's stereobm.cpp:
+
+  column sums   V[j, k] = sum over the w window rows of psi(L[., j], R[., j - d]),
+                d = dmin + k, for padded column j; moved down one row by adding the
+                entering row and subtracting the leaving one (the "_sub" row).
+  row sums      H[k] = sum over b < w of V[x + b, k]: the cost C(y, x, d), moved right
+                one pixel by adding V[x + w - 1] and subtracting V[x - 1].
+
+V[j, k] is kept at 0 where j < d (no right column), so the running sums need no branch;
+those H entries belong to candidates with x < d, which are never looked at.
+
+Layout: the disparity index k is the innermost (contiguous) axis everywhere, and the right
+image is stored with its columns reversed, so that R[y, j - d] for k = 0, 1, ... is a
+forward, contiguous read and the loops over k vectorise.
+
+Accumulator width is a decision: the narrowest unsigned/signed type that holds the
+largest possible window cost (see ``accumulator_dtype``). Unsigned 16-bit sums wrap on
+the way, but wrap-around arithmetic is exact modulo 2**16, and every true value fits.
+
+Layers:
+  match_fast      public: validate, pad, reverse, pick the accumulator, allocate
+  _fast_driver    private, parallel: one prange iteration per row stripe, owning its
+                  column sums, row sums and B-map
+  _stripe         per-stripe worker; _column_add/_column_shift move the column sums
+                  down, _select_row slides the row sums and picks disparities
+"""
+
+import numpy as np
+from numba import njit, prange
+
+from .config import INLINE, PARALLEL, SERIAL
+from .contract import INVALID, SAD, SSD, MatchResult, candidate_count, thread_count, validate
+from .window import pad_edge, popcount16
+
+
+def accumulator_dtype(image_dtype, cost, window):
+    """The narrowest integer type that holds every window cost exactly."""
+    top = 255 if image_dtype == np.uint8 else 65535
+    per_pixel = {SAD: top, SSD: top * top}.get(cost, 8 if top == 255 else 16)
+    largest = per_pixel * window * window
+    # Strictly below the maximum: the maximum itself marks blocked candidates.
+    for dtype in (np.uint16, np.int32, np.int64):
+        if largest < np.iinfo(dtype).max:
+            return dtype
+    raise ValueError("window too large for exact 64-bit costs")
+
+
+@njit(**INLINE)
+def _psi(a, b, cost):
+    """psi(a, b) written so that LLVM keeps it in the images' narrow lanes: |a - b| as
+    max - min never leaves the unsigned range, where np.int64(a) - b would widen every
+    SIMD lane to 64 bits."""
+    if cost == SAD:
+        return max(a, b) - min(a, b)
+    if cost == SSD:
+        diff = max(a, b) - min(a, b)
+        return diff * diff
+    return popcount16(a ^ b)
+
+
+@njit(**INLINE)
+def _add_psi(sums, lv, right, n, cost):
+    """sums[k] += psi(lv, right[k]) for k < n; the cost branch sits outside the loop so
+    that each loop is a plain SIMD loop."""
+    if cost == SAD:
+        for k in range(n):
+            sums[k] = sums[k] + _psi(lv, right[k], SAD)
+    elif cost == SSD:
+        for k in range(n):
+            sums[k] = sums[k] + _psi(lv, right[k], SSD)
+    else:
+        for k in range(n):
+            sums[k] = sums[k] + _psi(lv, right[k], 2)
+
+
+@njit(**INLINE)
+def _shift_psi(sums, lv, right, lv_sub, right_sub, n, cost):
+    """sums[k] += psi(lv, right[k]) - psi(lv_sub, right_sub[k]) for k < n."""
+    if cost == SAD:
+        for k in range(n):
+            sums[k] = sums[k] + _psi(lv, right[k], SAD) - _psi(lv_sub, right_sub[k], SAD)
+    elif cost == SSD:
+        for k in range(n):
+            sums[k] = sums[k] + _psi(lv, right[k], SSD) - _psi(lv_sub, right_sub[k], SSD)
+    else:
+        for k in range(n):
+            sums[k] = sums[k] + _psi(lv, right[k], 2) - _psi(lv_sub, right_sub[k], 2)
+
+
+@njit(**SERIAL)
+def _column_add(left_row, right_rev_row, col_sums, dmin, cost):
+    """col_sums[j, k] += psi(left_row[j], right_row[j - d]) for d = dmin + k <= j.
+
+    left_row: (Wp,) padded left row.  right_rev_row: (Wp,) padded right row, reversed,
+    so right_row[j - d] = right_rev_row[Wp - 1 - j + d].  col_sums: (Wp, D).
+    """
+    wp, ndisp = col_sums.shape
+    for j in range(dmin, wp):
+        _add_psi(col_sums[j], left_row[j], right_rev_row[wp - 1 - j + dmin:],
+                 min(ndisp, j - dmin + 1), cost)
+
+
+@njit(**SERIAL)
+def _column_shift(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin, cost):
+    """Move the column sums down one row in one pass: add psi of the entering row, and
+    subtract psi of the leaving (_sub) row.  Same layout as _column_add."""
+    wp, ndisp = col_sums.shape
+    for j in range(dmin, wp):
+        base = wp - 1 - j + dmin
+        _shift_psi(col_sums[j], in_left[j], in_right_rev[base:], out_left[j],
+                   out_right_rev[base:], min(ndisp, j - dmin + 1), cost)
+
+
+@njit(**SERIAL)
+def _select_row(col_sums, row_sums, never, w, dmin, csw, tau, blocked_rev, disp_row,
+                cost_row):
+    """Slide the row sums along one row and pick each pixel's disparity in the contract's
+    order: x ascending, and the smallest d among the minimum costs.
+
+    col_sums: (Wp, D).  row_sums: (D,) scratch, of the accumulator dtype.
+    never: accumulator scalar above every real cost (its dtype's maximum), so that blocked
+        candidates drop out of the min without a branch and the loops stay SIMD.
+    blocked_rev: uint8 (W,) the B-map reversed, blocked[x - d] = blocked_rev[W-1-x+d], so
+        the candidates of one pixel read it forward; cleared here.
+    disp_row: int32 (W,) out.  cost_row: int64 (W,) out.
+    Returns the number of candidates evaluated (those not blocked).
+    """
+    width = disp_row.shape[0]
+    ndisp = col_sums.shape[1]
+    blocked_rev[:] = 0
+    row_sums[:] = 0
+    for b in range(w):
+        sums = col_sums[b]
+        for k in range(ndisp):
+            row_sums[k] = row_sums[k] + sums[k]
+    evaluated = 0
+    for x in range(width):
+        if x > 0:
+            # Slide right: add the entering column x + w - 1, subtract the leaving x - 1.
+            add, sub = col_sums[x + w - 1], col_sums[x - 1]
+            for k in range(ndisp):
+                row_sums[k] = row_sums[k] + add[k] - sub[k]
+        n = min(ndisp, x - dmin + 1)  # candidates d = dmin + k <= x
+        if n <= 0:
+            disp_row[x] = INVALID
+            cost_row[x] = -1
+            continue
+        best = never
+        if csw:
+            # Blocked candidates cost `never`, so the min skips them without a branch.
+            mask = blocked_rev[width - 1 - x + dmin:]
+            taken = 0
+            for k in range(n):
+                taken += mask[k]
+                best = min(best, never if mask[k] else row_sums[k])
+            evaluated += n - taken
+            if taken == n:
+                disp_row[x] = INVALID
+                cost_row[x] = -1
+                continue
+            k = 0
+            while mask[k] or row_sums[k] != best:
+                k += 1
+        else:
+            for k in range(n):
+                best = min(best, row_sums[k])
+            evaluated += n
+            k = 0
+            while row_sums[k] != best:
+                k += 1
+        disp_row[x] = dmin + k
+        cost_row[x] = best
+        if csw and best <= tau:
+            blocked_rev[width - 1 - x + dmin + k] = 1
+    return evaluated
+
+
+@njit(**SERIAL)
+def _stripe(left_p, right_rev, y0, y1, w, dmin, dmax, cost, csw, tau, col_sums, row_sums,
+            never, blocked, disp, min_cost, evaluated):
+    """Match image rows y0 <= y < y1 into disp, min_cost and evaluated (per row) there.
+
+    left_p: (H + w - 1, Wp) padded left.  right_rev: the padded right, columns reversed.
+    col_sums: (Wp, D) and row_sums: (D,) accumulators; blocked: uint8 (W,) reversed
+    B-map. All scratch.
+    """
+    col_sums[:] = 0
+    for a in range(w):  # the window of padded rows y0 .. y0 + w - 1
+        _column_add(left_p[y0 + a], right_rev[y0 + a], col_sums, dmin, cost)
+    for y in range(y0, y1):
+        if y > y0:
+            # Move down: row y + w - 1 enters the window, row y - 1 leaves (the _sub row).
+            _column_shift(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
+                          right_rev[y - 1], col_sums, dmin, cost)
+        evaluated[y] = _select_row(col_sums, row_sums, never, w, dmin, csw, tau, blocked,
+                                   disp[y], min_cost[y])
+
+
+@njit(**PARALLEL)
+def _fast_driver(left_p, right_rev, stripes, w, dmin, dmax, cost, csw, tau, acc_max, disp,
+                 min_cost):
+    """Run row stripes in parallel; each iteration owns its sums and B-map.
+
+    stripes: int64 (n, 2), [start, end) rows of each stripe.  acc_max: (1,) array of the accumulator
+    dtype holding its maximum.  disp: int32 (H, W) out.  min_cost: int64 (H, W) out.
+    Returns int64 (H,), candidates evaluated per row.
+    """
+    n = stripes.shape[0]
+    height, width = disp.shape
+    wp = left_p.shape[1]
+    ndisp = dmax - dmin + 1
+    evaluated = np.zeros(height, np.int64)
+    for i in prange(n):
+        col_sums = np.zeros((wp, ndisp), acc_max.dtype)
+        row_sums = np.zeros(ndisp, acc_max.dtype)
+        blocked = np.zeros(width, np.uint8)
+        _stripe(left_p, right_rev, stripes[i, 0], stripes[i, 1], w, dmin, dmax, cost, csw, tau,
+                col_sums, row_sums, acc_max[0], blocked, disp, min_cost, evaluated)
+    return evaluated
+
+
+def stripe_bounds(height, window, threads, rows):
+    """int64 (n, 2) [start, end) rows of the stripes.
+
+    All rows: a few stripes per thread for balance, each tall enough that starting it
+    (w rows of column sums) stays a small share of its work.  A sample of rows (as for
+    tau auto): one single-row stripe each, so the cost follows the sample's size.
+    """
+    if rows.size != height:
+        return np.stack([rows, rows + 1], axis=1).astype(np.int64)
+    count = max(1, min(4 * threads, height // max(4 * window, 16)))
+    edges = np.linspace(0, height, count + 1).round().astype(np.int64)
+    return np.stack([edges[:-1], edges[1:]], axis=1)
+
+
+def match_fast(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False, tau=-1,
+               rule="literal", rows=None, threads=None):
+    """Match a rectified pair with running sums (same contract as match_window).
+
+    left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
+    rows: optional ascending row indices; the maps are then (n, W) for those rows.
+    Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
+    """
+    left, right, p = validate(left, right, window=window, dmin=dmin, dmax=dmax, cost=cost,
+                              csw=csw, tau=tau, rule=rule, rows=rows)
+    height, width = left.shape
+    h = p.window // 2
+    left_p = pad_edge(left, h, left.dtype)
+    right_rev = np.ascontiguousarray(pad_edge(right, h, right.dtype)[:, ::-1])
+    acc_type = accumulator_dtype(left.dtype, p.cost, p.window)
+    acc_max = np.array([np.iinfo(acc_type).max], acc_type)
+    disp = np.empty((height, width), np.int32)
+    min_cost = np.empty((height, width), np.int64)
+    with thread_count(threads) as tc:
+        stripes = stripe_bounds(height, p.window, tc.n, p.rows)
+        per_row = _fast_driver(left_p, right_rev, stripes, p.window, p.dmin, p.dmax, p.cost,
+                                  p.csw, p.tau, acc_max, disp, min_cost)
+    if p.rows.size != height:  # only the sampled rows were computed
+        disp, min_cost = disp[p.rows], min_cost[p.rows]
+    evaluated = int(per_row[p.rows].sum())
+    plain = candidate_count(width, p.dmin, p.dmax) * p.rows.size
+    return MatchResult(disp, min_cost, evaluated, plain)

@@ -1,0 +1,75 @@
+"""The fast engine equals the window engine bit for bit on every registered dataset.
+
+(Both are also compared to the oracle on random inputs in test_kernels_oracle.py; the
+oracle is too slow for full-size real images, so here the window engine stands in.)
+"""
+
+import numpy as np
+import pytest
+
+import kernels
+from csw_cli import datasets as D
+from csw_cli.engine import paper_tau
+
+
+def assert_engines_equal(left, right, **options):
+    window = kernels.match(left, right, engine="window", **options)
+    fast = kernels.match(left, right, engine="fast", **options)
+    np.testing.assert_array_equal(fast.disparity, window.disparity)
+    np.testing.assert_array_equal(fast.min_cost, window.min_cost)
+    assert fast.evaluated == window.evaluated
+    return window
+
+
+def check_pair(pair, cost, window=9):
+    options = dict(window=window, dmin=0, dmax=pair.dmax, cost=cost)
+    plain = assert_engines_equal(pair.left, pair.right, **options)
+    tau = paper_tau(plain.min_cost)
+    csw = assert_engines_equal(pair.left, pair.right, csw=True, tau=tau, **options)
+    assert 0 < csw.work_saved < 1  # the CSW run really skipped work
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name", sorted(D.DATASETS))
+def test_engines_equal_on_every_dataset(name, data_dir):
+    pair = D.load(name, data_dir, allow_download=False)
+    check_pair(pair, "sad")
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("cost", ["ssd", "shd"])
+def test_engines_equal_on_tsukuba_other_costs(cost, data_dir):
+    check_pair(D.load("tsukuba", data_dir, allow_download=False), cost)
+
+
+def test_engines_equal_on_synthetic_16_bit_with_dmin():
+    pair = D.load("synthetic")
+    left, right = pair.left.astype(np.uint16) * 257, pair.right.astype(np.uint16) * 251
+    for cost in ("sad", "ssd", "shd"):
+        options = dict(window=5, dmin=7, dmax=40, cost=cost)
+        plain = assert_engines_equal(left, right, **options)
+        assert_engines_equal(left, right, csw=True, tau=paper_tau(plain.min_cost), **options)
+
+
+@pytest.mark.parametrize("cost, dtype, window, expected", [
+    ("sad", np.uint8, 9, np.uint16),     # 81 * 255 fits 16 bits
+    ("sad", np.uint8, 17, np.int32),     # 289 * 255 does not
+    ("ssd", np.uint8, 9, np.int32),
+    ("ssd", np.uint16, 9, np.int64),
+    ("shd", np.uint16, 9, np.uint16),
+])
+def test_accumulator_width(cost, dtype, window, expected):
+    from kernels.contract import COSTS
+    from kernels.fast import accumulator_dtype
+
+    assert accumulator_dtype(np.dtype(dtype), COSTS[cost], window) == expected
+
+
+def test_wrapping_uint16_sums_stay_exact_at_the_limit():
+    # SAD 9x9 on 0/255 checkerboards: window costs reach 81 * 255 = 20655 and column
+    # sums go up and down by 255 per row, so any wrap mistake would show.
+    rng = np.random.default_rng(5)
+    left = (rng.integers(0, 2, (40, 60)) * 255).astype(np.uint8)
+    right = (rng.integers(0, 2, (40, 60)) * 255).astype(np.uint8)
+    result = assert_engines_equal(left, right, window=9, dmin=0, dmax=30, cost="sad")
+    assert result.min_cost.max() > 10000
