@@ -28,11 +28,13 @@ PAPER_COLUMNS = [
 ]
 
 
-def _split_engines(value):
-    engines = [e.strip().lower() for e in value.split(",") if e.strip()]
-    if not engines or any(e not in ("window", "fast") for e in engines):
-        raise click.BadParameter(f"{value!r}: use window, fast or window,fast")
-    return list(dict.fromkeys(engines))
+def _split(value, allowed):
+    """A comma-separated option value as a list of known names, in order, once each."""
+    names = [e.strip().lower() for e in value.split(",") if e.strip()]
+    if not names or any(e not in allowed for e in names):
+        raise click.BadParameter(f"{value!r}: use one or more of {', '.join(allowed)}, "
+                                 "separated by commas")
+    return list(dict.fromkeys(names))
 
 
 def resolve_tau(tau, pair, cost, plain_result, preset):
@@ -47,21 +49,22 @@ def resolve_tau(tau, pair, cost, plain_result, preset):
     return float(tau), "given"
 
 
-def time_pair(left, right, settings, tau, repeat, progress):
-    """Median seconds of plain and CSW runs, interleaved so that drifts in machine load
-    hit both alike."""
-    plain_s, csw_s = [], []
+def time_variants(left, right, settings, variants, repeat, progress):
+    """Median seconds of each variant (a dict of run_match options), interleaved so that
+    drifts in machine load hit all alike."""
+    times = [[] for _ in variants]
     for i in range(repeat):
         progress(f"repeat {i + 1}/{repeat}")
-        for csw, times in ((False, plain_s), (True, csw_s)):
+        for options, samples in zip(variants, times, strict=True):
             start = time.perf_counter()
-            run_match(left, right, csw=csw, tau=tau if csw else -1, **settings)
-            times.append(time.perf_counter() - start)
-    return statistics.median(plain_s), statistics.median(csw_s)
+            run_match(left, right, **options, **settings)
+            samples.append(time.perf_counter() - start)
+    return [statistics.median(samples) for samples in times]
 
 
-def bench_rows(pair, cost, tau, window, dmin, dmax, repeat, threads, engine="window"):
-    """The two TABLE II rows (plain, CSW) for one pair and cost, as dicts."""
+def bench_rows(pair, cost, tau, window, dmin, dmax, repeat, threads, engine="window",
+               rules=("literal",), unique_tau=None, uniqueness=None):
+    """TABLE II rows for one pair, cost and engine: plain, then CSW with each rule."""
     settings = dict(engine=engine, window=window, dmin=dmin, dmax=dmax, cost=cost,
                     threads=threads)
     ds = pair.dataset
@@ -72,26 +75,41 @@ def bench_rows(pair, cost, tau, window, dmin, dmax, repeat, threads, engine="win
 
     # Warm-up runs: their outputs are what gets scored (timing does not change them).
     plain = run_match(pair.left, pair.right, csw=False, tau=-1, **settings)
-    tau_value, tau_source = resolve_tau(tau, pair, cost, plain, preset)
-    csw = run_match(pair.left, pair.right, csw=True, tau=tau_value, **settings)
-    plain_s, csw_s = time_pair(pair.left, pair.right, settings, tau_value, repeat, progress)
+    variants = [dict(csw=False, tau=-1)]
+    taus = [(None, None)]
+    for rule in rules:
+        if rule == "literal":
+            taus.append(resolve_tau(tau, pair, cost, plain, preset))
+        else:
+            chosen = opt.tau_value(unique_tau, rule)
+            taus.append((chosen, "none") if chosen == float("inf")
+                        else resolve_tau(chosen, pair, cost, plain, preset))
+        variants.append(dict(csw=True, tau=taus[-1][0], rule=rule, uniqueness=uniqueness))
+    results = [plain] + [run_match(pair.left, pair.right, **v, **settings)
+                         for v in variants[1:]]
+    seconds = time_variants(pair.left, pair.right, settings, variants, repeat, progress)
 
     height, width = pair.left.shape
-    regions = {k: v for k, v in pair.masks.items()}
     rows = []
-    for result, is_csw, seconds in ((plain, False, plain_s), (csw, True, csw_s)):
-        metrics = score(result.disparity, pair.gt, regions)
-        paper_row = paper.TABLE2.get((ds.paper if ds else None, cost, is_csw))
+    for result, variant, (tau_value, tau_source), secs in zip(results, variants, taus,
+                                                              seconds, strict=True):
+        is_csw = variant["csw"]
+        rule = variant.get("rule")
+        metrics = score(result.disparity, pair.gt, pair.masks)
+        paper_row = paper.TABLE2.get((ds.paper if ds else None, cost, is_csw)) \
+            if rule in (None, "literal") else None
+        label = {None: "", "literal": " + CSW", "unique": " + CSW-unique"}[rule]
         rows.append({
             "dataset": pair.name,
             "size": f"{width}x{height}",
             "cost": cost,
             "csw": is_csw,
-            "algorithm": cost.upper() + (" + CSW" if is_csw else ""),
+            "algorithm": cost.upper() + label,
             "engine": engine,
-            "rule": "literal" if is_csw else None,
-            "tau": tau_value if is_csw else None,
-            "tau_source": tau_source if is_csw else None,
+            "rule": rule,
+            "tau": tau_value,
+            "tau_source": tau_source,
+            "uniqueness": result_uniqueness(rule, cost, uniqueness),
             "window": window,
             "dmin": dmin,
             "dmax": dmax,
@@ -102,8 +120,8 @@ def bench_rows(pair, cost, tau, window, dmin, dmax, repeat, threads, engine="win
                         for name, m in metrics.items()},
             "mae": metrics["all"]["mae"],
             "rms": metrics["all"]["rms"],
-            "time_s": seconds,
-            "time_reduced": 100.0 * (1.0 - csw_s / plain_s) if is_csw else None,
+            "time_s": secs,
+            "time_reduced": 100.0 * (1.0 - secs / seconds[0]) if is_csw else None,
             "work_saved": 100.0 * result.work_saved if is_csw else None,
             "evaluated": result.evaluated,
             "candidates": result.candidates,
@@ -113,6 +131,14 @@ def bench_rows(pair, cost, tau, window, dmin, dmax, repeat, threads, engine="win
             "paper_time_reduced": paper_row[1] if paper_row else None,
         })
     return rows
+
+
+def result_uniqueness(rule, cost, uniqueness):
+    from kernels.contract import DEFAULT_UNIQUENESS
+
+    if rule != "unique":
+        return None
+    return DEFAULT_UNIQUENESS[cost] if uniqueness is None else uniqueness
 
 
 def caption_for(pairs, preset_paper, window, threads, repeat, compile_s):
@@ -135,12 +161,18 @@ def caption_for(pairs, preset_paper, window, threads, repeat, compile_s):
 @opt.dataset_option()
 @opt.cost_option(multiple=True)
 @click.option("--engine", "engines", default="window,fast", show_default=True,
-              callback=lambda ctx, param, value: _split_engines(value),
+              callback=lambda ctx, param, value: _split(value, ("window", "fast")),
               help="Comma-separated engines to bench: window (the paper's method, where "
                    "CSW saves real work) and/or fast (running sums).")
 @click.option("--tau", default=None, type=opt.TauType(),
               help="N, 'auto' (histogram rule on the plain min-cost map) or 'paper' "
                    "[default: paper with --preset paper, else auto].")
+@click.option("--csw-rule", "rules", default="literal,unique", show_default=True,
+              callback=lambda ctx, param, value: _split(value, ("literal", "unique")),
+              help="CSW rules to bench beside plain matching (comma-separated).")
+@click.option("--unique-tau", type=opt.TauType(), default=None,
+              help="tau for the unique rule's rows [default: none, no cost threshold].")
+@opt.uniqueness_option
 @click.option("--preset", type=click.Choice(["paper"]), default=None,
               help="The paper's settings: 9x9 window, its disparity ranges and taus.")
 @opt.window_option
@@ -156,8 +188,8 @@ def caption_for(pairs, preset_paper, window, threads, repeat, compile_s):
 @opt.format_option
 @opt.data_dir_option
 @opt.download_option
-def bench(datasets, costs, engines, tau, preset, window, dmin, dmax, repeat, threads, paper_figures,
-          fmt, data_dir, download):
+def bench(datasets, costs, engines, tau, rules, unique_tau, uniqueness, preset, window, dmin,
+          dmax, repeat, threads, paper_figures, fmt, data_dir, download):
     """Match each dataset plain and with CSW, score both, and time both.
 
     \b
@@ -182,7 +214,7 @@ def bench(datasets, costs, engines, tau, preset, window, dmin, dmax, repeat, thr
         for cost in costs:
             for engine in engines:
                 rows.extend(bench_rows(pair, cost, tau, window, dmin, top, repeat, threads,
-                                       engine))
+                                       engine, rules, unique_tau, uniqueness))
     columns = COLUMNS + (PAPER_COLUMNS if paper_figures else [])
     emit(rows, columns, fmt, caption_for(pairs, preset == "paper", window, threads, repeat,
                                          compile_s))

@@ -74,14 +74,16 @@ def write_outputs(writers):
 @opt.dmin_option
 @opt.dmax_option
 @opt.csw_option
+@opt.rule_option
 @opt.tau_option
+@opt.uniqueness_option
 @opt.threads_option
 @click.option("--preview", type=click.Path(dir_okay=False),
               help="Also write an 8-bit colour PNG of the map (invalid black).")
 @click.option("--cost-map", type=click.Path(dir_okay=False),
               help="Also write the minimum-cost map m as PFM (inf where invalid).")
-def match(left, right, output, engine, cost, window, dmin, dmax, csw, tau, threads, preview,
-          cost_map):
+def match(left, right, output, engine, cost, window, dmin, dmax, csw, rule, tau, uniqueness,
+          threads, preview, cost_map):
     """Match LEFT against RIGHT (left is the reference) and write the disparity map.
 
     The match of left pixel x is right pixel x - d, for d in [DMIN, DMAX].  With --csw,
@@ -104,14 +106,13 @@ def match(left, right, output, engine, cost, window, dmin, dmax, csw, tau, threa
                     threads=threads)
     compile_s = warm_up(engine=engine, cost=cost)
     tau_note = ""
-    if csw:
-        if tau == "auto":
-            tau = estimate_tau(left_img, right_img, **settings)
-            tau_note = " (auto)"
-    else:
-        tau = -1
+    tau = opt.tau_value(tau, rule) if csw else -1
+    if tau == "auto":
+        tau = estimate_tau(left_img, right_img, **settings)
+        tau_note = " (auto)"
     start = time.perf_counter()
-    result = run_match(left_img, right_img, csw=csw, tau=tau, **settings)
+    result = run_match(left_img, right_img, csw=csw, tau=tau, rule=rule,
+                       uniqueness=uniqueness, **settings)
     seconds = time.perf_counter() - start
 
     disp = result.disparity
@@ -125,7 +126,7 @@ def match(left, right, output, engine, cost, window, dmin, dmax, csw, tau, threa
 
     height, width = disp.shape
     invalid = 100.0 * np.mean(disp < 0)
-    mode = f"CSW tau={tau:g}{tau_note}" if csw else "plain"
+    mode = f"CSW {rule} tau={tau:g}{tau_note}" if csw else "plain"
     click.echo(
         f"{width}x{height} d {dmin}..{dmax} {cost.upper()} {window}x{window} {mode} "
         f"({engine} engine): "

@@ -4,17 +4,33 @@ import click
 
 
 class TauType(click.ParamType):
-    """tau: a number, or 'auto' for the paper's histogram rule."""
+    """tau: a number, 'auto' for the paper's histogram rule, or 'none' for no cost
+    threshold (every match that the rule finds distinct claims its pixel)."""
 
     name = "tau"
 
+    def __init__(self, extra=()):
+        self.words = ("auto", "none", *extra)
+
     def convert(self, value, param, ctx):
-        if isinstance(value, (int, float)) or value == "auto":
+        if isinstance(value, (int, float)) or value in self.words:
             return value
         try:
-            return float(value)
+            number = float(value)
         except ValueError:
-            self.fail(f"{value!r} is not a number or 'auto'", param, ctx)
+            self.fail(f"{value!r} is not a number or one of {', '.join(self.words)}", param,
+                      ctx)
+        if number != number:  # NaN
+            self.fail("tau must be a number, not NaN", param, ctx)
+        return number
+
+
+def tau_value(tau, rule):
+    """The number a tau option stands for; None (not given) means the rule's default:
+    'auto' for the literal rule, 'none' for the unique rule."""
+    if tau is None:
+        tau = "none" if rule == "unique" else "auto"
+    return float("inf") if tau == "none" else tau
 
 
 def cost_option(multiple=False):
@@ -44,9 +60,21 @@ threads_option = click.option("--threads", "-j", type=click.IntRange(min=1), def
                               help="Threads for row-parallel matching [default: all cores].")
 csw_option = click.option("--csw/--no-csw", default=False, show_default=True,
                           help="Skip right pixels already claimed by a confident match.")
-tau_option = click.option("--tau", type=TauType(), default="auto", show_default=True,
-                          help="CSW threshold on the minimum cost: a number, or 'auto' for "
-                               "the paper's rule (width of the first of 10 histogram bins).")
+tau_option = click.option(
+    "--tau", type=TauType(), default=None,
+    help="CSW threshold on the minimum cost: a number, 'auto' for the paper's rule (width "
+         "of the first of 10 histogram bins), or 'none' [default: auto for the literal "
+         "rule, none for the unique rule].")
+rule_option = click.option(
+    "--csw-rule", "rule", type=click.Choice(["literal", "unique"]), default="literal",
+    show_default=True,
+    help="literal: the paper's rule, a match with m <= tau claims its right pixel for good. "
+         "unique: only distinct matches claim, and a claim does not bind the next pixel; it "
+         "keeps plain matching's accuracy (see reports/csw-tradeoff.md).")
+uniqueness_option = click.option(
+    "--uniqueness", type=click.IntRange(0, 1000), default=None,
+    help="The unique rule's margin in percent: the best cost must beat every candidate 2 "
+         "or more disparities away by this much [default: 12; 25 for SSD].")
 format_option = click.option(
     "--format", "fmt", type=click.Choice(["table", "github", "latex", "csv", "json"]),
     default="table", show_default=True, help="Output format of the table on stdout.")

@@ -13,10 +13,20 @@ import numpy as np
 SAD, SSD, SHD = 0, 1, 2
 COSTS = {"sad": SAD, "ssd": SSD, "shd": SHD}
 
-# Rules that decide which CSW matches mark their right pixel.  "literal" is the paper's:
-# mark when the minimum cost m <= tau.
-RULE_LITERAL = 0
-RULES = {"literal": RULE_LITERAL}
+# Rules that decide which CSW matches claim their right pixel, and which claims bind
+# (see README, "CSW rules"):
+#   literal  the paper's: claim when m <= tau; every claim blocks later pixels.
+#   unique   claim when m <= tau and the match is distinct (the best cost beats every
+#            candidate at least 2 away from it by `uniqueness` percent); a claim does not
+#            bind the very next pixel, whose match may share the right pixel at integer
+#            precision where the disparity grows along the row.
+RULE_LITERAL, RULE_UNIQUE = 0, 1
+RULES = {"literal": RULE_LITERAL, "unique": RULE_UNIQUE}
+# How many pixels after the claimant a claim does not bind, per rule.
+RULE_SLACK = {RULE_LITERAL: 0, RULE_UNIQUE: 1}
+# The unique rule's default margin (percent) per cost: SSD costs are squares of SAD-like
+# differences, so 1.12 ** 2 ~ 1.25 asks the same distinctiveness of them.
+DEFAULT_UNIQUENESS = {"sad": 12, "ssd": 25, "shd": 12}
 
 # One invalid-disparity convention everywhere: -1 in integer maps (inf in PFM files).
 INVALID = -1
@@ -55,6 +65,8 @@ class Params:
     csw: bool
     tau: int
     rule: int
+    uniqueness: int  # percent, for RULE_UNIQUE
+    slack: int  # a claim by pixel x' binds pixel x only when x - x' > slack
     rows: np.ndarray  # int64 (n,), the rows to match, ascending
 
 
@@ -73,7 +85,8 @@ def _as_image(name, image):
     return np.ascontiguousarray(image)
 
 
-def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal", rows=None):
+def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
+             uniqueness=None, rows=None):
     """Check the inputs once and return ``(left, right, Params)``; raise ValueError.
 
     left, right: uint8 or uint16 (H, W), equal shapes and dtypes.
@@ -113,7 +126,14 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
         raise ValueError(f"cost must be one of {', '.join(COSTS)}, got {cost!r}")
     if rule not in RULES:
         raise ValueError(f"CSW rule must be one of {', '.join(RULES)}, got {rule!r}")
-    # Costs are integers, so m <= tau is the same test as m <= floor(tau).
+    if uniqueness is None:
+        uniqueness = DEFAULT_UNIQUENESS[cost]
+    if isinstance(uniqueness, bool) or int(uniqueness) != uniqueness or \
+            not 0 <= uniqueness <= 1000:
+        raise ValueError(f"uniqueness must be a whole percentage from 0 to 1000, got "
+                         f"{uniqueness!r}")
+    # Costs are integers, so m <= tau is the same test as m <= floor(tau); +inf (no
+    # threshold) becomes a bound above every possible cost.
     tau = float(tau)
     if np.isnan(tau):
         raise ValueError("tau must be a number, got NaN")
@@ -126,7 +146,8 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
             raise ValueError(f"rows must be a 1-D list of row indices in 0..{height - 1}")
         if np.any(np.diff(rows) <= 0):
             raise ValueError("rows must be strictly increasing")
-    params = Params(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule], rows)
+    params = Params(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule],
+                    int(uniqueness), RULE_SLACK[RULES[rule]], rows)
     return left, right, params
 
 

@@ -32,8 +32,17 @@ import numpy as np
 from numba import njit, prange
 
 from .config import INLINE, PARALLEL, SERIAL
-from .contract import INVALID, SAD, SSD, MatchResult, candidate_count, thread_count, validate
-from .window import pad_edge, popcount16
+from .contract import (
+    INVALID,
+    RULE_UNIQUE,
+    SAD,
+    SSD,
+    MatchResult,
+    candidate_count,
+    thread_count,
+    validate,
+)
+from .window import is_distinct, pad_edge, popcount16
 
 
 def accumulator_dtype(image_dtype, cost, window):
@@ -114,23 +123,30 @@ def _column_shift(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin
                    out_right_rev[base:], min(ndisp, j - dmin + 1), cost)
 
 
+@njit(**INLINE)
+def _blocked(claim, x, slack):
+    """A claim (the claimant's column, or -1) blocks pixel x when x - claimant > slack."""
+    return claim >= 0 and x - claim > slack
+
+
 @njit(**SERIAL)
-def _select_row(col_sums, row_sums, never, w, dmin, csw, tau, blocked_rev, disp_row,
-                cost_row):
+def _select_row(col_sums, row_sums, never, w, dmin, csw, tau, rule, uniqueness, slack,
+                claims_rev, disp_row, cost_row):
     """Slide the row sums along one row and pick each pixel's disparity in the contract's
     order: x ascending, and the smallest d among the minimum costs.
 
     col_sums: (Wp, D).  row_sums: (D,) scratch, of the accumulator dtype.
     never: accumulator scalar above every real cost (its dtype's maximum), so that blocked
         candidates drop out of the min without a branch and the loops stay SIMD.
-    blocked_rev: uint8 (W,) the B-map reversed, blocked[x - d] = blocked_rev[W-1-x+d], so
-        the candidates of one pixel read it forward; cleared here.
+    claims_rev: int64 (W,) the B-map reversed: claims[x - d] = claims_rev[W-1-x+d], the
+        column of the pixel that last claimed each right pixel or -1, so the candidates
+        of one pixel read it forward; reset here.
     disp_row: int32 (W,) out.  cost_row: int64 (W,) out.
     Returns the number of candidates evaluated (those not blocked).
     """
     width = disp_row.shape[0]
     ndisp = col_sums.shape[1]
-    blocked_rev[:] = 0
+    claims_rev[:] = -1
     row_sums[:] = 0
     for b in range(w):
         sums = col_sums[b]
@@ -150,19 +166,19 @@ def _select_row(col_sums, row_sums, never, w, dmin, csw, tau, blocked_rev, disp_
             continue
         best = never
         if csw:
-            # Blocked candidates cost `never`, so the min skips them without a branch.
-            mask = blocked_rev[width - 1 - x + dmin:]
+            claims = claims_rev[width - 1 - x + dmin:]
             taken = 0
             for k in range(n):
-                taken += mask[k]
-                best = min(best, never if mask[k] else row_sums[k])
+                blocked = _blocked(claims[k], x, slack)
+                taken += blocked
+                best = min(best, never if blocked else row_sums[k])
             evaluated += n - taken
             if taken == n:
                 disp_row[x] = INVALID
                 cost_row[x] = -1
                 continue
             k = 0
-            while mask[k] or row_sums[k] != best:
+            while _blocked(claims[k], x, slack) or row_sums[k] != best:
                 k += 1
         else:
             for k in range(n):
@@ -173,18 +189,29 @@ def _select_row(col_sums, row_sums, never, w, dmin, csw, tau, blocked_rev, disp_
                 k += 1
         disp_row[x] = dmin + k
         cost_row[x] = best
-        if csw and best <= tau:
-            blocked_rev[width - 1 - x + dmin + k] = 1
+        if not csw or best > tau:
+            continue
+        if rule == RULE_UNIQUE:
+            # Second best among the evaluated candidates at least 2 away from k.
+            second = never
+            for k2 in range(max(k - 1, 0)):
+                second = min(second, never if _blocked(claims[k2], x, slack) else row_sums[k2])
+            for k2 in range(k + 2, n):
+                second = min(second, never if _blocked(claims[k2], x, slack) else row_sums[k2])
+            if second == never or not is_distinct(np.int64(best), np.int64(second),
+                                                   uniqueness):
+                continue
+        claims_rev[width - 1 - x + dmin + k] = x
     return evaluated
 
 
 @njit(**SERIAL)
-def _stripe(left_p, right_rev, y0, y1, w, dmin, dmax, cost, csw, tau, col_sums, row_sums,
-            never, blocked, disp, min_cost, evaluated):
+def _stripe(left_p, right_rev, y0, y1, w, dmin, cost, csw, tau, rule, uniqueness, slack,
+            col_sums, row_sums, never, claims, disp, min_cost, evaluated):
     """Match image rows y0 <= y < y1 into disp, min_cost and evaluated (per row) there.
 
     left_p: (H + w - 1, Wp) padded left.  right_rev: the padded right, columns reversed.
-    col_sums: (Wp, D) and row_sums: (D,) accumulators; blocked: uint8 (W,) reversed
+    col_sums: (Wp, D) and row_sums: (D,) accumulators; claims: int64 (W,) reversed
     B-map. All scratch.
     """
     col_sums[:] = 0
@@ -195,13 +222,13 @@ def _stripe(left_p, right_rev, y0, y1, w, dmin, dmax, cost, csw, tau, col_sums, 
             # Move down: row y + w - 1 enters the window, row y - 1 leaves (the _sub row).
             _column_shift(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
                           right_rev[y - 1], col_sums, dmin, cost)
-        evaluated[y] = _select_row(col_sums, row_sums, never, w, dmin, csw, tau, blocked,
-                                   disp[y], min_cost[y])
+        evaluated[y] = _select_row(col_sums, row_sums, never, w, dmin, csw, tau, rule,
+                                   uniqueness, slack, claims, disp[y], min_cost[y])
 
 
 @njit(**PARALLEL)
-def _fast_driver(left_p, right_rev, stripes, w, dmin, dmax, cost, csw, tau, acc_max, disp,
-                 min_cost):
+def _fast_driver(left_p, right_rev, stripes, w, dmin, dmax, cost, csw, tau, rule, uniqueness,
+                 slack, acc_max, disp, min_cost):
     """Run row stripes in parallel; each iteration owns its sums and B-map.
 
     stripes: int64 (n, 2), [start, end) rows of each stripe.  acc_max: (1,) array of the accumulator
@@ -216,9 +243,10 @@ def _fast_driver(left_p, right_rev, stripes, w, dmin, dmax, cost, csw, tau, acc_
     for i in prange(n):
         col_sums = np.zeros((wp, ndisp), acc_max.dtype)
         row_sums = np.zeros(ndisp, acc_max.dtype)
-        blocked = np.zeros(width, np.uint8)
-        _stripe(left_p, right_rev, stripes[i, 0], stripes[i, 1], w, dmin, dmax, cost, csw, tau,
-                col_sums, row_sums, acc_max[0], blocked, disp, min_cost, evaluated)
+        claims = np.empty(width, np.int64)
+        _stripe(left_p, right_rev, stripes[i, 0], stripes[i, 1], w, dmin, cost, csw, tau, rule,
+                uniqueness, slack, col_sums, row_sums, acc_max[0], claims, disp, min_cost,
+                evaluated)
     return evaluated
 
 
@@ -237,7 +265,7 @@ def stripe_bounds(height, window, threads, rows):
 
 
 def match_fast(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False, tau=-1,
-               rule="literal", rows=None, threads=None):
+               rule="literal", uniqueness=None, rows=None, threads=None):
     """Match a rectified pair with running sums (same contract as match_window).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
@@ -245,7 +273,7 @@ def match_fast(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False,
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     """
     left, right, p = validate(left, right, window=window, dmin=dmin, dmax=dmax, cost=cost,
-                              csw=csw, tau=tau, rule=rule, rows=rows)
+                              csw=csw, tau=tau, rule=rule, uniqueness=uniqueness, rows=rows)
     height, width = left.shape
     h = p.window // 2
     left_p = pad_edge(left, h, left.dtype)
@@ -257,7 +285,8 @@ def match_fast(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False,
     with thread_count(threads) as tc:
         stripes = stripe_bounds(height, p.window, tc.n, p.rows)
         per_row = _fast_driver(left_p, right_rev, stripes, p.window, p.dmin, p.dmax, p.cost,
-                                  p.csw, p.tau, acc_max, disp, min_cost)
+                                  p.csw, p.tau, p.rule, p.uniqueness, p.slack, acc_max, disp,
+                                  min_cost)
     if p.rows.size != height:  # only the sampled rows were computed
         disp, min_cost = disp[p.rows], min_cost[p.rows]
     evaluated = int(per_row[p.rows].sum())

@@ -13,7 +13,16 @@ import numpy as np
 from numba import njit, prange
 
 from .config import INLINE, PARALLEL, SERIAL
-from .contract import INVALID, SAD, SSD, MatchResult, candidate_count, thread_count, validate
+from .contract import (
+    INVALID,
+    RULE_UNIQUE,
+    SAD,
+    SSD,
+    MatchResult,
+    candidate_count,
+    thread_count,
+    validate,
+)
 
 
 @njit(**INLINE)
@@ -47,25 +56,37 @@ def _window_cost(left_p, right_p, top, xl, xr, w, cost):
     return total
 
 
+@njit(**INLINE)
+def is_distinct(best, second, uniqueness):
+    """The unique rule's test: a second-best cost exists and beats best by uniqueness %."""
+    return second >= 0 and second * 100 > best * (100 + uniqueness)
+
+
 @njit(**SERIAL)
-def _match_row(left_p, right_p, y, w, dmin, dmax, cost, csw, tau, blocked, disp_row, cost_row):
+def _match_row(left_p, right_p, y, w, dmin, dmax, cost, csw, tau, rule, uniqueness, slack,
+               claims, costs, disp_row, cost_row):
     """Match one row y, left to right, and return the number of candidates evaluated.
 
     left_p, right_p: uint16 (H + w - 1, W + w - 1), images edge-padded by h = w // 2,
         so the window centred on image pixel (y, x) has top-left (y, x) in padded coords.
-    blocked:  bool (W,), this row's B-map over right columns; cleared here.
+    claims: int64 (W,), this row's B-map: the column of the pixel that last claimed each
+        right pixel, or -1; reset here.  A claim by x' blocks pixel x if x - x' > slack.
+    costs: int64 (D,) scratch: this pixel's evaluated costs by d - dmin (-1 = skipped).
     disp_row: int32 (W,) out, D(y, x) or INVALID.  cost_row: int64 (W,) out, m or -1.
     """
     width = disp_row.shape[0]
-    blocked[:] = False
+    claims[:] = -1
     evaluated = 0
     for x in range(width):
         best_d = INVALID
         best = np.int64(-1)
         for d in range(dmin, min(dmax, x) + 1):
-            if csw and blocked[x - d]:
+            claimant = claims[x - d]
+            if csw and claimant >= 0 and x - claimant > slack:
+                costs[d - dmin] = -1
                 continue
             c = _window_cost(left_p, right_p, y, x, x - d, w, cost)
+            costs[d - dmin] = c
             evaluated += 1
             # Strict < over ascending d: the smallest d wins ties.
             if best_d == INVALID or c < best:
@@ -73,14 +94,25 @@ def _match_row(left_p, right_p, y, w, dmin, dmax, cost, csw, tau, blocked, disp_
                 best_d = d
         disp_row[x] = best_d
         cost_row[x] = best
-        if csw and best_d != INVALID and best <= tau:
-            blocked[x - best_d] = True
+        if not csw or best_d == INVALID or best > tau:
+            continue
+        if rule == RULE_UNIQUE:
+            # Second best among the evaluated candidates at least 2 away from best_d.
+            second = np.int64(-1)
+            for d in range(dmin, min(dmax, x) + 1):
+                c = costs[d - dmin]
+                if c >= 0 and abs(d - best_d) >= 2 and (second < 0 or c < second):
+                    second = c
+            if not is_distinct(best, second, uniqueness):
+                continue
+        claims[x - best_d] = x
     return evaluated
 
 
 @njit(**PARALLEL)
-def _window_driver(left_p, right_p, rows, w, dmin, dmax, cost, csw, tau, disp, min_cost):
-    """Match the given rows in parallel; each iteration owns its B-map.
+def _window_driver(left_p, right_p, rows, w, dmin, dmax, cost, csw, tau, rule, uniqueness,
+                   slack, disp, min_cost):
+    """Match the given rows in parallel; each iteration owns its B-map and cost scratch.
 
     rows: int64 (n,).  disp: int32 (n, W) out.  min_cost: int64 (n, W) out.
     Returns int64 (n,), the candidates evaluated per row.
@@ -88,9 +120,10 @@ def _window_driver(left_p, right_p, rows, w, dmin, dmax, cost, csw, tau, disp, m
     n, width = disp.shape
     evaluated = np.zeros(n, np.int64)
     for i in prange(n):
-        blocked = np.zeros(width, np.bool_)
+        claims = np.empty(width, np.int64)
+        costs = np.empty(dmax - dmin + 1, np.int64)
         evaluated[i] = _match_row(left_p, right_p, rows[i], w, dmin, dmax, cost, csw, tau,
-                                  blocked, disp[i], min_cost[i])
+                                  rule, uniqueness, slack, claims, costs, disp[i], min_cost[i])
     return evaluated
 
 
@@ -102,16 +135,19 @@ def pad_edge(image, h, dtype=np.uint16):
 
 
 def match_window(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False,
-                 tau=-1, rule="literal", rows=None, threads=None):
+                 tau=-1, rule="literal", uniqueness=None, rows=None,
+                 threads=None):
     """Match a rectified pair with full window sums (see the README's contract).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
+    rule, uniqueness: the CSW rule ("literal" or "unique") and the unique rule's margin
+        in percent (see README, "CSW rules").
     rows: optional int64 (n,) ascending row indices; then the maps are (n, W).
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     Raises ValueError, with a message that says how to fix it, on bad input.
     """
     left, right, p = validate(left, right, window=window, dmin=dmin, dmax=dmax, cost=cost,
-                              csw=csw, tau=tau, rule=rule, rows=rows)
+                              csw=csw, tau=tau, rule=rule, uniqueness=uniqueness, rows=rows)
     h = p.window // 2
     left_p, right_p = pad_edge(left, h), pad_edge(right, h)
     width = left.shape[1]
@@ -119,6 +155,6 @@ def match_window(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=Fals
     min_cost = np.empty((p.rows.size, width), np.int64)
     with thread_count(threads):
         per_row = _window_driver(left_p, right_p, p.rows, p.window, p.dmin, p.dmax, p.cost,
-                                 p.csw, p.tau, disp, min_cost)
+                                 p.csw, p.tau, p.rule, p.uniqueness, p.slack, disp, min_cost)
     plain = candidate_count(width, p.dmin, p.dmax) * p.rows.size
     return MatchResult(disp, min_cost, int(per_row.sum()), plain)

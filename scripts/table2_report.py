@@ -25,6 +25,8 @@ def bench(*args):
     cmd = ["csw", "bench", "--repeat", REPEAT, "--format", "json", *args]
     if "--engine" not in args:
         cmd[2:2] = ["--engine", "window"]
+    if "--csw-rule" not in args:
+        cmd[2:2] = ["--csw-rule", "literal"]
     print("+", " ".join(cmd), file=sys.stderr, flush=True)
     out = subprocess.run(cmd, check=True, capture_output=True, text=True)
     return json.loads(out.stdout), " ".join(cmd[:1] + cmd[1:])

@@ -28,17 +28,29 @@ def window_costs(left, right, y, x, ds, window, cost):
     return out
 
 
-def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=None):
-    """Reference (disparity int32 (n, W), min_cost int64 (n, W), evaluated int)."""
+def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=None,
+                 rule="literal", uniqueness=None):
+    """Reference (disparity int32 (n, W), min_cost int64 (n, W), evaluated int).
+
+    CSW rules: "literal" claims the right pixel when m <= tau, and a claim blocks every
+    later pixel. "unique" claims only when also some evaluated candidate at least 2 away
+    from the best exists and every such one costs more than best * (1 + uniqueness/100);
+    its claims do not block the pixel right after the claimant. uniqueness defaults to
+    12 (SAD, SHD) or 25 (SSD).
+    """
+    if uniqueness is None:
+        uniqueness = 25 if cost == "ssd" else 12
     height, width = left.shape
     rows = range(height) if rows is None else rows
+    slack = 1 if rule == "unique" else 0
     disp = np.full((len(rows), width), -1, np.int32)
     mins = np.full((len(rows), width), -1, np.int64)
     evaluated = 0
     for i, y in enumerate(rows):
-        blocked = np.zeros(width, bool)
+        claimant = {}  # right column -> the column of the pixel that last claimed it
         for x in range(width):
-            ds = [d for d in range(dmin, min(dmax, x) + 1) if not (csw and blocked[x - d])]
+            ds = [d for d in range(dmin, min(dmax, x) + 1)
+                  if not (csw and x - claimant.get(x - d, x) > slack)]
             if not ds:
                 continue
             costs = window_costs(left, right, y, x, ds, window, cost)
@@ -46,6 +58,11 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
             best = min(costs)
             d_best = ds[costs.index(best)]  # first, i.e. smallest, d attaining the minimum
             disp[i, x], mins[i, x] = d_best, best
-            if csw and best <= np.floor(tau):
-                blocked[x - d_best] = True
+            if not csw or best > np.floor(tau):
+                continue
+            if rule == "unique":
+                others = [c for d, c in zip(ds, costs, strict=True) if abs(d - d_best) >= 2]
+                if not others or min(others) * 100 <= best * (100 + uniqueness):
+                    continue
+            claimant[x - d_best] = x
     return disp, mins, evaluated

@@ -31,20 +31,25 @@ def synthetic_bench():
 
 
 def test_bench_json_schema(synthetic_bench):
-    assert len(synthetic_bench) == 8  # 2 costs x 2 engines x (plain, CSW)
-    assert [r["engine"] for r in synthetic_bench[:4]] == ["window"] * 2 + ["fast"] * 2
+    assert len(synthetic_bench) == 12  # 2 costs x 2 engines x (plain, literal, unique)
+    assert [r["engine"] for r in synthetic_bench[:6]] == ["window"] * 3 + ["fast"] * 3
+    assert [r["rule"] for r in synthetic_bench[:3]] == [None, "literal", "unique"]
     for row in synthetic_bench:
         assert BENCH_KEYS <= set(row)
         assert set(row["bad"]) == {"0.5", "1", "2", "4"}
         assert isinstance(row["csw"], bool) and row["threads"] == 1
         assert row["time_s"] > 0 and row["window"] == 7 and row["dmax"] == 40
         assert row["size"] == "450x375"
-        if row["csw"]:
+        if row["rule"] == "literal":
             assert isinstance(row["tau"], float)
+        if row["rule"] == "unique":
+            assert row["tau"] is None and row["tau_source"] == "none"  # no threshold
+            assert row["uniqueness"] == 12
+        if row["csw"]:
             assert row["time_reduced"] is not None and 0 <= row["work_saved"] <= 100
         else:
             assert row["tau"] is None and row["work_saved"] is None
-    assert [r["csw"] for r in synthetic_bench] == [False, True] * 4
+    assert [r["csw"] for r in synthetic_bench] == [False, True, True] * 4
 
 
 def test_bench_rows_equal_the_kernels_own_output(synthetic_bench):
@@ -53,10 +58,15 @@ def test_bench_rows_equal_the_kernels_own_output(synthetic_bench):
         plain = kernels.match(pair.left, pair.right, window=7, dmax=40, cost=row["cost"])
         tau = paper_tau(plain.min_cost)  # --tau defaults to auto: the paper's rule
         result = plain
-        if row["csw"]:
+        if row["rule"] == "literal":
             assert row["tau"] == pytest.approx(tau)
             result = kernels.match(pair.left, pair.right, window=7, dmax=40,
                                    cost=row["cost"], csw=True, tau=tau)
+        elif row["rule"] == "unique":  # no tau by default, per-cost uniqueness
+            result = kernels.match(pair.left, pair.right, window=7, dmax=40,
+                                   cost=row["cost"], csw=True, tau=float("inf"),
+                                   rule="unique")
+        if row["csw"]:
             assert row["work_saved"] == pytest.approx(100 * result.work_saved)
         metrics = score(result.disparity, pair.gt, pair.masks)
         assert row["error_rate"] == pytest.approx(metrics["all"]["bad"][1.0])
@@ -67,7 +77,7 @@ def test_bench_rows_equal_the_kernels_own_output(synthetic_bench):
 @pytest.mark.parametrize("fmt", ["table", "github", "latex", "csv"])
 def test_bench_human_formats(fmt):
     result = invoke("bench", "-d", "synthetic", "--repeat", 1, "--dmax", 16, "--window", 3,
-                    "--tau", 300, "--format", fmt)
+                    "--tau", 300, "--format", fmt, "--csw-rule", "literal")
     assert result.exit_code == 0, result.output
     assert "SAD + CSW" in result.stdout and "bench: synthetic" in result.stderr
     if fmt == "csv":
@@ -78,7 +88,8 @@ def test_bench_human_formats(fmt):
 @pytest.mark.data
 def test_bench_paper_preset_on_tsukuba(data_dir):
     result = invoke("bench", "-d", "tsukuba", "--preset", "paper", "--cost", "sad,ssd,shd",
-                    "--engine", "window", "--repeat", 1, "--format", "json", "--data-dir", data_dir)
+                    "--engine", "window", "--csw-rule", "literal", "--repeat", 1,
+                    "--format", "json", "--data-dir", data_dir)
     assert result.exit_code == 0, result.output
     rows = json.loads(result.stdout)
     assert [(r["cost"], r["csw"]) for r in rows] == [
@@ -92,6 +103,7 @@ def test_bench_paper_preset_on_tsukuba(data_dir):
 def test_bench_bad_input():
     assert invoke("bench", "-d", "nowhere").exit_code == 2
     assert invoke("bench", "-d", "synthetic", "--engine", "gpu").exit_code == 2
+    assert invoke("bench", "-d", "synthetic", "--csw-rule", "greedy").exit_code == 2
     assert invoke("bench", "-d", "synthetic", "--cost", "ncc").exit_code == 2
     result = invoke("bench", "-d", "synthetic", "--preset", "paper", "--window", 5)
     assert result.exit_code == 2 and "9x9" in result.output

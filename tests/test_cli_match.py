@@ -31,7 +31,7 @@ def test_match_writes_pfm_equal_to_kernel(pair_files, tmp_path, small_scene):
     got = read_pfm(out)
     want = np.where(expected.disparity >= 0, expected.disparity, np.inf).astype(np.float32)
     np.testing.assert_array_equal(got, want)
-    assert "CSW tau=500" in result.stderr and "evaluated" in result.stderr
+    assert "CSW literal tau=500" in result.stderr and "evaluated" in result.stderr
     assert result.stdout == ""
 
 
@@ -105,6 +105,10 @@ BAD_INPUTS = [
     (["{left}", "{right}", "-o", "{tmp}/nowhere/d.pfm"], 2, "does not exist"),
     (["{left}", "{right}", "-o", "{junk}/d.pfm"], 2, "does not exist"),
     (["{left}", "{right}", "--tau", "many", "--csw"], 2, "not a number"),
+    (["{left}", "{right}", "--tau", "nan", "--csw"], 2, "NaN"),
+    (["{left}", "{right}", "--uniqueness", "-3", "--csw"], 2, "-3"),
+    (["{left}", "{right}", "--csw-rule", "greedy", "--csw"], 2, "greedy"),
+    (["{left}", "{right}", "--engine", "gpu"], 2, "gpu"),
     (["{left}", "{right}", "--cost", "ncc"], 2, "ncc"),
 ]
 
@@ -209,3 +213,23 @@ def test_installed_entry_point_runs_as_a_process(pair_files, tmp_path):
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
     assert [line for line in bad.stderr.splitlines() if line.startswith("Error")] == [
         "Error: Invalid value for LEFT: nope.png: no such file"]
+
+
+def test_unique_rule_through_the_cli(pair_files, tmp_path, small_scene):
+    left, right = pair_files
+    out = tmp_path / "u.npy"
+    result = run("match", left, right, "-o", out, "--dmax", 16, "--csw", "--csw-rule",
+                 "unique", "--uniqueness", 20, "--engine", "window")
+    assert result.exit_code == 0, result.output
+    assert "CSW unique tau=inf" in result.stderr
+    expected = kernels.match(small_scene[0], small_scene[1], dmax=16, csw=True,
+                             tau=float("inf"), rule="unique", uniqueness=20)
+    np.testing.assert_array_equal(np.load(out), expected.disparity.astype(np.float32))
+
+
+def test_engines_write_identical_maps(pair_files, tmp_path):
+    left, right = pair_files
+    for engine in ("window", "fast"):
+        assert run("match", left, right, "-o", tmp_path / f"{engine}.pfm", "--dmax", 16,
+                   "--csw", "--tau", 700, "--engine", engine).exit_code == 0
+    assert (tmp_path / "window.pfm").read_bytes() == (tmp_path / "fast.pfm").read_bytes()

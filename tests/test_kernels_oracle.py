@@ -22,7 +22,9 @@ def random_pair(rng, height, width, dtype, shift=3, noise=0):
 def assert_equal_to_oracle(engine, left, right, **kw):
     got = kernels.match(left, right, engine=engine, **kw)
     disp, mins, evaluated = oracle_match(left, right, kw["window"], kw["dmin"], kw["dmax"],
-                                         kw["cost"], kw.get("csw", False), kw.get("tau", -1))
+                                         kw["cost"], kw.get("csw", False), kw.get("tau", -1),
+                                         rule=kw.get("rule", "literal"),
+                                         uniqueness=kw.get("uniqueness"))
     np.testing.assert_array_equal(got.disparity, disp)
     np.testing.assert_array_equal(got.min_cost, mins)
     assert got.evaluated == evaluated
@@ -44,11 +46,13 @@ def test_matches_oracle_plain_and_csw(engine, cost, window, dtype):
                               dmax=dmax, cost=cost)
         for q in (25, 75):
             tau = float(np.percentile(plain.min_cost[plain.min_cost >= 0], q))
-            assert_equal_to_oracle(engine, left, right, window=window, dmin=dmin, dmax=dmax,
-                                   cost=cost, csw=True, tau=tau)
+            for rule, uniqueness in (("literal", None), ("unique", 0), ("unique", None)):
+                assert_equal_to_oracle(engine, left, right, window=window, dmin=dmin,
+                                       dmax=dmax, cost=cost, csw=True, tau=tau, rule=rule,
+                                       uniqueness=uniqueness)
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=60, deadline=None)
 @given(
     engine=st.sampled_from(ENGINES),
     seed=st.integers(0, 2**32 - 1),
@@ -59,10 +63,12 @@ def test_matches_oracle_plain_and_csw(engine, cost, window, dtype):
     sixteen=st.booleans(),
     csw=st.booleans(),
     tau_quantile=st.floats(0, 100),
+    rule=st.sampled_from(["literal", "unique"]),
+    uniqueness=st.integers(0, 40),
     data=st.data(),
 )
 def test_matches_oracle_hypothesis(engine, seed, height, width, window, cost, sixteen, csw,
-                                   tau_quantile, data):
+                                   tau_quantile, rule, uniqueness, data):
     window = min(window, height if height % 2 else height - 1, width if width % 2 else width - 1)
     if window < 1:
         window = 1
@@ -81,4 +87,4 @@ def test_matches_oracle_hypothesis(engine, seed, height, width, window, cost, si
     valid = plain.min_cost[plain.min_cost >= 0]
     tau = float(np.percentile(valid, tau_quantile)) if valid.size else 0.0
     assert_equal_to_oracle(engine, left, right, window=window, dmin=dmin, dmax=dmax,
-                           cost=cost, csw=csw, tau=tau)
+                           cost=cost, csw=csw, tau=tau, rule=rule, uniqueness=uniqueness)
