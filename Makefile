@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test bench bench-peers lint format clean
+.PHONY: run test bench bench-peers tradeoff lint format clean
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -33,6 +33,9 @@ bench: $(VENV)/.installed-dev
 
 bench-peers: $(VENV)/.installed-dev
 	scripts/bench_peers.sh
+
+tradeoff: $(VENV)/.installed-dev
+	scripts/tradeoff.sh
 
 lint: $(VENV)/.installed-dev
 	scripts/lint.sh

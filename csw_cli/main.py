@@ -8,6 +8,7 @@ from .datasets_cmd import datasets
 from .hist import hist
 from .match import match
 from .score_cmd import score_cmd
+from .sweep import sweep
 from .synth_cmd import synth
 
 
@@ -28,4 +29,5 @@ cli.add_command(datasets)
 cli.add_command(hist)
 cli.add_command(match)
 cli.add_command(score_cmd, name="score")
+cli.add_command(sweep)
 cli.add_command(synth)

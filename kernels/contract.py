@@ -86,7 +86,7 @@ def _as_image(name, image):
 
 
 def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
-             uniqueness=None, rows=None):
+             uniqueness=None, slack=None, rows=None):
     """Check the inputs once and return ``(left, right, Params)``; raise ValueError.
 
     left, right: uint8 or uint16 (H, W), equal shapes and dtypes.
@@ -126,6 +126,11 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
         raise ValueError(f"cost must be one of {', '.join(COSTS)}, got {cost!r}")
     if rule not in RULES:
         raise ValueError(f"CSW rule must be one of {', '.join(RULES)}, got {rule!r}")
+    # slack is the rule's unless given: studies of the rule (reports/csw-tradeoff.md)
+    # switch its two halves on and off separately.
+    slack = RULE_SLACK[RULES[rule]] if slack is None else int(slack)
+    if not 0 <= slack <= 1_000_000:
+        raise ValueError(f"slack must be >= 0, got {slack}")
     if uniqueness is None:
         uniqueness = DEFAULT_UNIQUENESS[cost]
     if isinstance(uniqueness, bool) or int(uniqueness) != uniqueness or \
@@ -147,7 +152,7 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
         if np.any(np.diff(rows) <= 0):
             raise ValueError("rows must be strictly increasing")
     params = Params(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule],
-                    int(uniqueness), RULE_SLACK[RULES[rule]], rows)
+                    int(uniqueness), slack, rows)
     return left, right, params
 
 

@@ -36,6 +36,7 @@ from .contract import (
     INVALID,
     RULE_UNIQUE,
     SAD,
+    SHD,
     SSD,
     MatchResult,
     candidate_count,
@@ -82,7 +83,7 @@ def _add_psi(sums, lv, right, n, cost):
             sums[k] = sums[k] + _psi(lv, right[k], SSD)
     else:
         for k in range(n):
-            sums[k] = sums[k] + _psi(lv, right[k], 2)
+            sums[k] = sums[k] + _psi(lv, right[k], SHD)
 
 
 @njit(**INLINE)
@@ -96,7 +97,7 @@ def _shift_psi(sums, lv, right, lv_sub, right_sub, n, cost):
             sums[k] = sums[k] + _psi(lv, right[k], SSD) - _psi(lv_sub, right_sub[k], SSD)
     else:
         for k in range(n):
-            sums[k] = sums[k] + _psi(lv, right[k], 2) - _psi(lv_sub, right_sub[k], 2)
+            sums[k] = sums[k] + _psi(lv, right[k], SHD) - _psi(lv_sub, right_sub[k], SHD)
 
 
 @njit(**SERIAL)
@@ -112,10 +113,11 @@ def _column_add(left_row, right_rev_row, col_sums, dmin, cost):
                  min(ndisp, j - dmin + 1), cost)
 
 
-@njit(**SERIAL)
+@njit(**INLINE)
 def _column_shift(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin, cost):
     """Move the column sums down one row in one pass: add psi of the entering row, and
-    subtract psi of the leaving (_sub) row.  Same layout as _column_add."""
+    subtract psi of the leaving (_sub) row.  Same layout as _column_add.  Inlined into
+    one function per cost below, where the constant cost folds the other paths away."""
     wp, ndisp = col_sums.shape
     for j in range(dmin, wp):
         base = wp - 1 - j + dmin
@@ -127,6 +129,21 @@ def _column_shift(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin
 def _blocked(claim, x, slack):
     """A claim (the claimant's column, or -1) blocks pixel x when x - claimant > slack."""
     return claim >= 0 and x - claim > slack
+
+
+@njit(**SERIAL)
+def _column_shift_sad(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin):
+    _column_shift(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin, SAD)
+
+
+@njit(**SERIAL)
+def _column_shift_ssd(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin):
+    _column_shift(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin, SSD)
+
+
+@njit(**SERIAL)
+def _column_shift_shd(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin):
+    _column_shift(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin, SHD)
 
 
 @njit(**SERIAL)
@@ -220,8 +237,14 @@ def _stripe(left_p, right_rev, y0, y1, w, dmin, cost, csw, tau, rule, uniqueness
     for y in range(y0, y1):
         if y > y0:
             # Move down: row y + w - 1 enters the window, row y - 1 leaves (the _sub row).
-            _column_shift(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
-                          right_rev[y - 1], col_sums, dmin, cost)
+            enter_l, enter_r = left_p[y + w - 1], right_rev[y + w - 1]
+            leave_l, leave_r = left_p[y - 1], right_rev[y - 1]
+            if cost == SAD:
+                _column_shift_sad(enter_l, enter_r, leave_l, leave_r, col_sums, dmin)
+            elif cost == SSD:
+                _column_shift_ssd(enter_l, enter_r, leave_l, leave_r, col_sums, dmin)
+            else:
+                _column_shift_shd(enter_l, enter_r, leave_l, leave_r, col_sums, dmin)
         evaluated[y] = _select_row(col_sums, row_sums, never, w, dmin, csw, tau, rule,
                                    uniqueness, slack, claims, disp[y], min_cost[y])
 
@@ -265,7 +288,7 @@ def stripe_bounds(height, window, threads, rows):
 
 
 def match_fast(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False, tau=-1,
-               rule="literal", uniqueness=None, rows=None, threads=None):
+               rule="literal", uniqueness=None, slack=None, rows=None, threads=None):
     """Match a rectified pair with running sums (same contract as match_window).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
@@ -273,7 +296,8 @@ def match_fast(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False,
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     """
     left, right, p = validate(left, right, window=window, dmin=dmin, dmax=dmax, cost=cost,
-                              csw=csw, tau=tau, rule=rule, uniqueness=uniqueness, rows=rows)
+                              csw=csw, tau=tau, rule=rule, uniqueness=uniqueness, slack=slack,
+                              rows=rows)
     height, width = left.shape
     h = p.window // 2
     left_p = pad_edge(left, h, left.dtype)

@@ -135,19 +135,21 @@ def pad_edge(image, h, dtype=np.uint16):
 
 
 def match_window(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False,
-                 tau=-1, rule="literal", uniqueness=None, rows=None,
+                 tau=-1, rule="literal", uniqueness=None, slack=None, rows=None,
                  threads=None):
     """Match a rectified pair with full window sums (see the README's contract).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
     rule, uniqueness: the CSW rule ("literal" or "unique") and the unique rule's margin
-        in percent (see README, "CSW rules").
+        in percent (see README, "CSW rules").  slack: override the rule's binding (a
+        claim by x' blocks x only when x - x' > slack); for studies of the rule.
     rows: optional int64 (n,) ascending row indices; then the maps are (n, W).
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     Raises ValueError, with a message that says how to fix it, on bad input.
     """
     left, right, p = validate(left, right, window=window, dmin=dmin, dmax=dmax, cost=cost,
-                              csw=csw, tau=tau, rule=rule, uniqueness=uniqueness, rows=rows)
+                              csw=csw, tau=tau, rule=rule, uniqueness=uniqueness, slack=slack,
+                              rows=rows)
     h = p.window // 2
     left_p, right_p = pad_edge(left, h), pad_edge(right, h)
     width = left.shape[1]

@@ -4,7 +4,9 @@ set -euo pipefail
 set -x
 mkdir -p out
 csw synth out/synthetic --size 450x375 --dmax 64
+csw bench --dataset synthetic --repeat 3
 csw match out/synthetic/left.png out/synthetic/right.png -o out/synthetic-disp.pfm \
     --dmax 64 --preview out/synthetic-preview.png
 csw match out/synthetic/left.png out/synthetic/right.png -o out/synthetic-disp-csw.pfm \
-    --dmax 64 --csw --tau auto --preview out/synthetic-preview-csw.png
+    --dmax 64 --csw --csw-rule unique --preview out/synthetic-preview-csw.png
+csw score out/synthetic-disp-csw.pfm --gt out/synthetic/gt.pfm --mask nonocc=out/synthetic/nonocc.png

@@ -29,7 +29,7 @@ def window_costs(left, right, y, x, ds, window, cost):
 
 
 def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=None,
-                 rule="literal", uniqueness=None):
+                 rule="literal", uniqueness=None, slack=None):
     """Reference (disparity int32 (n, W), min_cost int64 (n, W), evaluated int).
 
     CSW rules: "literal" claims the right pixel when m <= tau, and a claim blocks every
@@ -42,7 +42,8 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
         uniqueness = 25 if cost == "ssd" else 12
     height, width = left.shape
     rows = range(height) if rows is None else rows
-    slack = 1 if rule == "unique" else 0
+    if slack is None:
+        slack = 1 if rule == "unique" else 0
     disp = np.full((len(rows), width), -1, np.int32)
     mins = np.full((len(rows), width), -1, np.int64)
     evaluated = 0

@@ -24,7 +24,8 @@ def assert_equal_to_oracle(engine, left, right, **kw):
     disp, mins, evaluated = oracle_match(left, right, kw["window"], kw["dmin"], kw["dmax"],
                                          kw["cost"], kw.get("csw", False), kw.get("tau", -1),
                                          rule=kw.get("rule", "literal"),
-                                         uniqueness=kw.get("uniqueness"))
+                                         uniqueness=kw.get("uniqueness"),
+                                         slack=kw.get("slack"))
     np.testing.assert_array_equal(got.disparity, disp)
     np.testing.assert_array_equal(got.min_cost, mins)
     assert got.evaluated == evaluated
@@ -46,10 +47,12 @@ def test_matches_oracle_plain_and_csw(engine, cost, window, dtype):
                               dmax=dmax, cost=cost)
         for q in (25, 75):
             tau = float(np.percentile(plain.min_cost[plain.min_cost >= 0], q))
-            for rule, uniqueness in (("literal", None), ("unique", 0), ("unique", None)):
+            for rule, uniqueness, slack in (("literal", None, None), ("unique", 0, None),
+                                            ("unique", None, None), ("unique", 5, 0),
+                                            ("literal", None, 2)):
                 assert_equal_to_oracle(engine, left, right, window=window, dmin=dmin,
                                        dmax=dmax, cost=cost, csw=True, tau=tau, rule=rule,
-                                       uniqueness=uniqueness)
+                                       uniqueness=uniqueness, slack=slack)
 
 
 @settings(max_examples=60, deadline=None)
