@@ -126,7 +126,8 @@ def match(left, right, output, engine, cost, window, dmin, dmax, csw, rule, tau,
 
     height, width = disp.shape
     invalid = 100.0 * np.mean(disp < 0)
-    mode = f"CSW {rule} tau={tau:g}{tau_note}" if csw else "plain"
+    tau_text = "none" if tau == float("inf") else f"{tau:g}"
+    mode = f"CSW {rule} tau={tau_text}{tau_note}" if csw else "plain"
     click.echo(
         f"{width}x{height} d {dmin}..{dmax} {cost.upper()} {window}x{window} {mode} "
         f"({engine} engine): "

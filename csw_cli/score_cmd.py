@@ -50,13 +50,13 @@ def score_cmd(disp, gt, gt_scale, masks, border, dataset, fmt, data_dir, downloa
     if (gt is None) == (dataset is None):
         raise click.UsageError("give either --gt FILE or --dataset NAME")
     if dataset is not None:
+        if gt_scale is not None or masks:
+            raise click.UsageError("--gt-scale and --mask go with --gt; a --dataset brings "
+                                   "its own scale and masks")
         try:
             pair = load(dataset, data_dir, allow_download=download)
         except DataError as exc:
             raise click.ClickException(str(exc)) from None
-        if gt_scale is not None or masks:
-            raise click.UsageError("--gt-scale and --mask go with --gt; a --dataset brings "
-                                   "its own scale and masks")
         truth = pair.gt
         regions = dict(pair.masks)
         if border is not None:

@@ -276,13 +276,15 @@ def _fast_driver(left_p, right_rev, stripes, w, dmin, dmax, cost, csw, tau, rule
 def stripe_bounds(height, window, threads, rows):
     """int64 (n, 2) [start, end) rows of the stripes.
 
-    All rows: a few stripes per thread for balance, each tall enough that starting it
-    (w rows of column sums) stays a small share of its work.  A sample of rows (as for
-    tau auto): one single-row stripe each, so the cost follows the sample's size.
+    Starting a stripe costs w rows of column sums, so stripes are as few and tall as
+    load balance allows: one for one thread; otherwise up to 4 per thread, each at least
+    16 windows tall.  A sample of rows (as for tau auto) gets one single-row stripe per
+    row, so its cost follows the sample's size.
     """
     if rows.size != height:
         return np.stack([rows, rows + 1], axis=1).astype(np.int64)
-    count = max(1, min(4 * threads, height // max(4 * window, 16)))
+    per_thread = 1 if threads == 1 else max(1, min(4, height // (threads * 16 * window)))
+    count = max(1, min(threads * per_thread, height))
     edges = np.linspace(0, height, count + 1).round().astype(np.int64)
     return np.stack([edges[:-1], edges[1:]], axis=1)
 

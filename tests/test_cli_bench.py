@@ -155,3 +155,13 @@ def test_hist_plot(tmp_path):
     result = invoke("hist", "-d", "synthetic", "--dmax", 16, "--window", 3, "--plot",
                     tmp_path / "h.png")
     assert result.exit_code == 0 and (tmp_path / "h.png").stat().st_size > 1000
+
+
+def test_score_options_that_conflict_fail_before_any_download(tmp_path, monkeypatch):
+    monkeypatch.setenv("CSW_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setenv("CSW_DATA_MIRROR", "http://127.0.0.1:9/")
+    (tmp_path / "d.npy").write_bytes(b"")
+    result = invoke("score", tmp_path / "d.npy", "--dataset", "tsukuba", "--gt-scale", 3,
+                    "--data-dir", tmp_path / "empty")
+    assert result.exit_code == 2 and "--gt-scale and --mask go with --gt" in result.output
+    assert not (tmp_path / "cache").exists()

@@ -221,7 +221,7 @@ def test_unique_rule_through_the_cli(pair_files, tmp_path, small_scene):
     result = run("match", left, right, "-o", out, "--dmax", 16, "--csw", "--csw-rule",
                  "unique", "--uniqueness", 20, "--engine", "window")
     assert result.exit_code == 0, result.output
-    assert "CSW unique tau=inf" in result.stderr
+    assert "CSW unique tau=none" in result.stderr
     expected = kernels.match(small_scene[0], small_scene[1], dmax=16, csw=True,
                              tau=float("inf"), rule="unique", uniqueness=20)
     np.testing.assert_array_equal(np.load(out), expected.disparity.astype(np.float32))
