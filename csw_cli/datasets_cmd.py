@@ -4,26 +4,11 @@ import click
 
 from . import options as opt
 from .datasets import DATASETS, SYNTHETIC, SYNTHETIC_DMAX, SYNTHETIC_SIZE, is_local
-from .imageio_utils import ImageError, read_image
 from .report import emit
 
 COLUMNS = [("name", "Dataset", 0), ("size", "Size", 0), ("range", "Disparities", 0),
            ("gt_scale", "GT scale", 0), ("masks", "Masks", 0), ("local", "Local", 0),
            ("description", "Description", 0)]
-
-
-def _size(ds, data_dir):
-    """WxH from the left image where it is local (sizes are in SOURCES.md otherwise)."""
-    from .datasets import local_path
-
-    path = local_path(ds.left, data_dir)
-    if path is None:
-        return ""
-    try:
-        height, width = read_image(path).shape
-    except ImageError:
-        return "unreadable"
-    return f"{width}x{height}"
 
 
 @click.command(short_help="List the registered datasets.")
@@ -40,7 +25,7 @@ def datasets(fmt, data_dir):
              "dmin": 0, "dmax": SYNTHETIC_DMAX, "gt_scale": 1, "masks": "nonocc",
              "local": "yes", "description": "built-in synthetic scene (csw synth)"}]
     for name, ds in DATASETS.items():
-        rows.append({"name": name, "size": _size(ds, data_dir), "range": f"0..{ds.dmax}",
+        rows.append({"name": name, "size": ds.size, "range": f"0..{ds.dmax}",
                      "dmin": 0, "dmax": ds.dmax, "gt_scale": f"{ds.gt_scale:g}",
                      "masks": ",".join(ds.masks) or "-",
                      "local": "yes" if is_local(name, data_dir) else "no",

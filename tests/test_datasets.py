@@ -25,6 +25,7 @@ def test_every_registry_file_has_an_official_url_and_a_sha256():
 @pytest.mark.parametrize("name", sorted(D.DATASETS))
 def test_ground_truth_scale_and_range(name, data_dir):
     pair = D.load(name, data_dir, allow_download=False)
+    assert pair.dataset.size == f"{pair.left.shape[1]}x{pair.left.shape[0]}"
     assert np.nanmax(pair.gt) == pytest.approx(EXPECTED_MAX[name], abs=1e-4)
     assert np.nanmax(pair.gt) <= pair.dmax <= np.nanmax(pair.gt) + 1
     # Photometric check: the documented scale puts the right image's matching pixel
