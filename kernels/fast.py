@@ -66,9 +66,9 @@ def _psi(a, b, cost):
     if cost == SAD:
         return max(a, b) - min(a, b)
     if cost == SSD:
-        diff = max(a, b) - min(a, b)
+        diff = np.uint32(max(a, b) - min(a, b))  # its square fits 32 bits unsigned
         return diff * diff
-    return popcount16(a ^ b)
+    return popcount16(np.uint16(a ^ b))
 
 
 @njit(**INLINE)
