@@ -14,6 +14,8 @@ TABULATE_FORMATS = {"table": "simple", "github": "github", "latex": "latex"}
 def _cell(value, digits):
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return ""
+    if value == math.inf:  # a threshold that is not set, such as tau none
+        return "none"
     if isinstance(value, float):
         return f"{value:.{digits}f}"
     return value
