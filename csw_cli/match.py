@@ -42,6 +42,20 @@ def check_output(path, suffixes, param_hint):
     return path
 
 
+def check_distinct(inputs, outputs):
+    """Refuse an output that would overwrite an input or another output (an input may
+    well be given twice)."""
+    seen = {os.path.realpath(path): hint for hint, path in inputs.items()}
+    for hint, path in outputs.items():
+        if path is None:
+            continue
+        key = os.path.realpath(path)
+        if key in seen:
+            raise click.BadParameter(f"{path} is also given as {seen[key]}; an output must not "
+                                     "overwrite an input or another output", param_hint=hint)
+        seen[key] = hint
+
+
 def load_pair(left_path, right_path):
     """Read both images as gray, or fail with a usage error naming the bad one."""
     images = []
@@ -98,6 +112,8 @@ def match(left, right, output, engine, cost, window, dmin, dmax, csw, rule, tau,
     output = check_output(output, OUTPUT_SUFFIXES, "--output")
     preview = check_output(preview, (".png",), "--preview")
     cost_map = check_output(cost_map, (".pfm",), "--cost-map")
+    check_distinct({"LEFT": left, "RIGHT": right},
+                   {"--output": output, "--preview": preview, "--cost-map": cost_map})
     if output.suffix.lower() == ".png" and dmax > PNG_MAX_DISPARITY:
         raise click.BadParameter(f"{dmax} is too large for a 16-bit PNG (d*256 must fit); "
                                  "write .pfm or .npy instead", param_hint="--dmax")

@@ -109,6 +109,9 @@ BAD_INPUTS = [
     (["{left}", "{right}", "--uniqueness", "-3", "--csw"], 2, "-3"),
     (["{left}", "{right}", "--csw-rule", "greedy", "--csw"], 2, "greedy"),
     (["{left}", "{right}", "--engine", "gpu"], 2, "gpu"),
+    (["{left}", "{right}", "-o", "{left}"], 2, "must not overwrite"),
+    (["{left}", "{right}", "-o", "{tmp}/a.png", "--preview", "{tmp}/a.png"], 2,
+     "must not overwrite"),
     (["{left}", "{right}", "--cost", "ncc"], 2, "ncc"),
 ]
 
