@@ -1,7 +1,18 @@
+import os
+
 import pytest
+from hypothesis import settings
 
 from csw_cli.imageio_utils import write_png
 from csw_cli.synth import render
+
+# Property tests: a fixed example sequence in CI (CI=true), so a run is repeatable;
+# fresh examples on developers' machines; CSW_HYPOTHESIS_PROFILE=thorough for a long hunt.
+settings.register_profile("dev", max_examples=60)
+settings.register_profile("ci", max_examples=60, derandomize=True, database=None)
+settings.register_profile("thorough", max_examples=2000)
+settings.load_profile(os.environ.get("CSW_HYPOTHESIS_PROFILE",
+                                     "ci" if os.environ.get("CI") else "dev"))
 
 
 @pytest.fixture(scope="session")

@@ -55,7 +55,7 @@ def test_matches_oracle_plain_and_csw(engine, cost, window, dtype):
                                        uniqueness=uniqueness, slack=slack)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(deadline=None)  # examples per run: see the profiles in conftest.py
 @given(
     engine=st.sampled_from(ENGINES),
     seed=st.integers(0, 2**32 - 1),
