@@ -28,15 +28,6 @@ PAPER_COLUMNS = [
 ]
 
 
-def _split(value, allowed):
-    """A comma-separated option value as a list of known names, in order, once each."""
-    names = [e.strip().lower() for e in value.split(",") if e.strip()]
-    if not names or any(e not in allowed for e in names):
-        raise click.BadParameter(f"{value!r}: use one or more of {', '.join(allowed)}, "
-                                 "separated by commas")
-    return list(dict.fromkeys(names))
-
-
 def resolve_tau(tau, pair, cost, plain_result, preset):
     """(tau, note) for a CSW row: a number, 'auto' (the paper's histogram rule on the
     plain min-cost map) or 'paper' (the paper's value; auto where it has none)."""
@@ -161,14 +152,14 @@ def caption_for(pairs, preset_paper, window, threads, repeat, compile_s):
 @opt.dataset_option()
 @opt.cost_option(multiple=True)
 @click.option("--engine", "engines", default="window,fast", show_default=True,
-              callback=lambda ctx, param, value: _split(value, ("window", "fast")),
+              callback=opt.comma_list("window", "fast"),
               help="Comma-separated engines to bench: window (the paper's method, where "
                    "CSW saves real work) and/or fast (running sums).")
 @click.option("--tau", default=None, type=opt.TauType(),
               help="N, 'auto' (histogram rule on the plain min-cost map) or 'paper' "
                    "[default: paper with --preset paper, else auto].")
 @click.option("--csw-rule", "rules", default="literal,unique", show_default=True,
-              callback=lambda ctx, param, value: _split(value, ("literal", "unique")),
+              callback=opt.comma_list("literal", "unique"),
               help="CSW rules to bench beside plain matching (comma-separated).")
 @click.option("--unique-tau", type=opt.TauType(), default=None,
               help="tau for the unique rule's rows [default: none, no cost threshold].")

@@ -33,21 +33,28 @@ def tau_value(tau, rule):
     return float("inf") if tau == "none" else tau
 
 
+def comma_list(*allowed):
+    """A callback that reads a comma-separated option value as a list of the allowed
+    names, in the order given, each once."""
+
+    def parse(ctx, param, value):
+        names = [v.strip().lower() for v in value.split(",") if v.strip()]
+        unknown = [n for n in names if n not in allowed]
+        if unknown or not names:
+            raise click.BadParameter(f"unknown {', '.join(unknown) or repr(value)}; use one or "
+                                     f"more of {', '.join(allowed)}, separated by commas")
+        return list(dict.fromkeys(names))
+
+    return parse
+
+
 def cost_option(multiple=False):
     if multiple:
         return click.option("--cost", "costs", default="sad", show_default=True,
                             help="Comma-separated costs from sad, ssd, shd.",
-                            callback=_split_costs)
+                            callback=comma_list("sad", "ssd", "shd"))
     return click.option("--cost", type=click.Choice(["sad", "ssd", "shd"]), default="sad",
                         show_default=True, help="Matching cost.")
-
-
-def _split_costs(ctx, param, value):
-    costs = [c.strip().lower() for c in value.split(",") if c.strip()]
-    bad = [c for c in costs if c not in ("sad", "ssd", "shd")]
-    if bad or not costs:
-        raise click.BadParameter(f"unknown cost {', '.join(bad) or value!r}; use sad, ssd, shd")
-    return costs
 
 
 window_option = click.option("--window", "-w", type=int, default=9, show_default=True,

@@ -134,7 +134,7 @@ def plot(path, rows, title):
 @opt.cost_option()
 @click.option("--rule", "rules", default="literal,unique", show_default=True,
               help="Comma-separated CSW rules to sweep.",
-              callback=lambda ctx, param, value: _rules(value))
+              callback=opt.comma_list("literal", "unique"))
 @click.option("--tau-range", "taus", default=DEFAULT_TAUS, show_default=True,
               callback=parse_taus,
               help="Taus: numbers, Nx (N times the auto tau), a:b:step, none.")
@@ -183,9 +183,3 @@ def sweep(datasets, cost, rules, taus, uniquenesses, window, dmax, threads, plot
     if plot_path:
         plot(plot_path, rows, f"{datasets[0]}: {cost.upper()} {window}x{window}, d 0..{top}")
 
-
-def _rules(value):
-    names = [v.strip() for v in value.split(",") if v.strip()]
-    if not names or any(n not in ("literal", "unique") for n in names):
-        raise click.BadParameter(f"{value!r}: use literal, unique or literal,unique")
-    return list(dict.fromkeys(names))
