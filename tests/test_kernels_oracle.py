@@ -91,3 +91,21 @@ def test_matches_oracle_hypothesis(engine, seed, height, width, window, cost, si
     tau = float(np.percentile(valid, tau_quantile)) if valid.size else 0.0
     assert_equal_to_oracle(engine, left, right, window=window, dmin=dmin, dmax=dmax,
                            cost=cost, csw=csw, tau=tau, rule=rule, uniqueness=uniqueness)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.parametrize("shape", [(1, 1), (1, 6), (6, 1), (2, 3), (5, 7)])
+def test_tiny_and_constant_images(engine, shape):
+    """Edge shapes (one row, one column, one pixel), every disparity range the width
+    allows, and a constant pair, where every candidate ties and the smallest d wins."""
+    rng = np.random.default_rng(sum(shape))
+    varied = rng.integers(0, 256, shape, dtype=np.int64).astype(np.uint8)
+    constant = np.full(shape, 77, np.uint8)
+    for left, right in ((varied, varied[:, ::-1].copy()), (constant, constant)):
+        for dmin, dmax in {(0, 0), (0, shape[1] - 1), (shape[1] - 1, shape[1] - 1)}:
+            for rule in ("literal", "unique"):
+                assert_equal_to_oracle(engine, left, right, window=1, dmin=dmin, dmax=dmax,
+                                       cost="sad", csw=True, tau=40, rule=rule)
+    plain = kernels.match(constant, constant, engine=engine, window=1, dmin=0,
+                          dmax=shape[1] - 1)
+    assert (plain.disparity == 0).all() and (plain.min_cost == 0).all()
