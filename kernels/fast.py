@@ -215,11 +215,12 @@ def _select_row(col_sums, row_sums, zero_row, never, w, dmin, csw, tau, rule, un
             continue
         if rule == RULE_UNIQUE:
             # Second best among the evaluated candidates at least 2 away from first.
+            # One pass over all candidates, the three next to the best masked out, vectorises
+            # better than two passes around them.
             second = never
-            for k in range(max(first - 1, 0)):
-                second = min(second, never if _blocked(claims[k], x, slack) else row_sums[k])
-            for k in range(first + 2, n):
-                second = min(second, never if _blocked(claims[k], x, slack) else row_sums[k])
+            for k in range(n):
+                skip = _blocked(claims[k], x, slack) or abs(k - first) <= 1
+                second = min(second, never if skip else row_sums[k])
             if second == never or not is_distinct(np.int64(best), np.int64(second),
                                                    uniqueness):
                 continue
