@@ -24,8 +24,8 @@ Layers:
   match_fast      public: validate, pad, reverse, pick the accumulator, allocate
   _fast_driver    private, parallel: one prange iteration per row stripe, owning its
                   column sums, row sums and B-map
-  _stripe         per-stripe worker; _column_add/_column_shift move the column sums
-                  down, _select_row slides the row sums and picks disparities
+  _stripe         per-stripe worker; _shift_columns moves the column sums down,
+                  _select_row slides the row sums and picks disparities
 """
 
 import numpy as np
@@ -43,7 +43,7 @@ from .contract import (
     thread_count,
     validate,
 )
-from .window import is_distinct, pad_edge, popcount16
+from .window import blocked, is_distinct, pad_edge, popcount16
 
 
 def accumulator_dtype(image_dtype, cost, window):
@@ -72,21 +72,6 @@ def _psi(a, b, cost):
 
 
 @njit(**INLINE)
-def _add_psi(sums, lv, right, n, cost):
-    """sums[k] += psi(lv, right[k]) for k < n; the cost branch sits outside the loop so
-    that each loop is a plain SIMD loop."""
-    if cost == SAD:
-        for k in range(n):
-            sums[k] = sums[k] + _psi(lv, right[k], SAD)
-    elif cost == SSD:
-        for k in range(n):
-            sums[k] = sums[k] + _psi(lv, right[k], SSD)
-    else:
-        for k in range(n):
-            sums[k] = sums[k] + _psi(lv, right[k], SHD)
-
-
-@njit(**INLINE)
 def _shift_psi(sums, lv, right, lv_sub, right_sub, n, cost):
     """sums[k] += psi(lv, right[k]) - psi(lv_sub, right_sub[k]) for k < n."""
     if cost == SAD:
@@ -100,35 +85,22 @@ def _shift_psi(sums, lv, right, lv_sub, right_sub, n, cost):
             sums[k] = sums[k] + _psi(lv, right[k], SHD) - _psi(lv_sub, right_sub[k], SHD)
 
 
-@njit(**SERIAL)
-def _column_add(left_row, right_rev_row, col_sums, dmin, cost):
-    """col_sums[j, k] += psi(left_row[j], right_row[j - d]) for d = dmin + k <= j.
-
-    left_row: (Wp,) padded left row.  right_rev_row: (Wp,) padded right row, reversed,
-    so right_row[j - d] = right_rev_row[Wp - 1 - j + d].  col_sums: (Wp, D).
-    """
-    wp, ndisp = col_sums.shape
-    for j in range(dmin, wp):
-        _add_psi(col_sums[j], left_row[j], right_rev_row[wp - 1 - j + dmin:],
-                 min(ndisp, j - dmin + 1), cost)
-
-
 @njit(**INLINE)
 def _column_shift(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin, cost):
-    """Move the column sums down one row in one pass: add psi of the entering row, and
-    subtract psi of the leaving (_sub) row.  Same layout as _column_add.  Inlined into
-    one function per cost below, where the constant cost folds the other paths away."""
+    """col_sums[j, k] += psi(in_left[j], in_right[j - d]) - psi(out_left[j], out_right[j - d])
+    for d = dmin + k <= j: move the column sums down one row in one pass, adding the
+    entering row and subtracting the leaving (_sub) one.
+
+    *_left: (Wp,) padded left rows.  *_right_rev: (Wp,) padded right rows, reversed, so
+    right[j - d] = right_rev[Wp - 1 - j + d].  col_sums: (Wp, D).
+    Inlined into one function per cost below, where the constant cost folds the other
+    paths away.  psi(0, 0) = 0 for every cost, so a zero row as the leaving one adds a row.
+    """
     wp, ndisp = col_sums.shape
     for j in range(dmin, wp):
         base = wp - 1 - j + dmin
         _shift_psi(col_sums[j], in_left[j], in_right_rev[base:], out_left[j],
                    out_right_rev[base:], min(ndisp, j - dmin + 1), cost)
-
-
-@njit(**INLINE)
-def _blocked(claim, x, slack):
-    """A claim (the claimant's column, or -1) blocks pixel x when x - claimant > slack."""
-    return claim >= 0 and x - claim > slack
 
 
 @njit(**SERIAL)
@@ -144,6 +116,17 @@ def _column_shift_ssd(in_left, in_right_rev, out_left, out_right_rev, col_sums, 
 @njit(**SERIAL)
 def _column_shift_shd(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin):
     _column_shift(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin, SHD)
+
+
+@njit(**SERIAL)
+def _shift_columns(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin, cost):
+    """_column_shift for the given cost."""
+    if cost == SAD:
+        _column_shift_sad(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin)
+    elif cost == SSD:
+        _column_shift_ssd(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin)
+    else:
+        _column_shift_shd(in_left, in_right_rev, out_left, out_right_rev, col_sums, dmin)
 
 
 @njit(**SERIAL)
@@ -190,11 +173,11 @@ def _select_row(col_sums, row_sums, zero_row, never, w, dmin, csw, tau, rule, un
         if csw:
             for k in range(n):
                 row_sums[k] = row_sums[k] + add[k] - sub[k]
-                blocked = _blocked(claims[k], x, slack)
-                taken += blocked
-                best = min(best, never if blocked else row_sums[k])
+                skip = blocked(claims[k], x, slack)
+                taken += skip
+                best = min(best, never if skip else row_sums[k])
             for k in range(n):
-                hit = row_sums[k] == best and not _blocked(claims[k], x, slack)
+                hit = row_sums[k] == best and not blocked(claims[k], x, slack)
                 first = min(first, np.int16(k) if hit else none)
         else:
             for k in range(n):
@@ -219,7 +202,7 @@ def _select_row(col_sums, row_sums, zero_row, never, w, dmin, csw, tau, rule, un
             # better than two passes around them.
             second = never
             for k in range(n):
-                skip = _blocked(claims[k], x, slack) or abs(k - first) <= 1
+                skip = blocked(claims[k], x, slack) or abs(k - first) <= 1
                 second = min(second, never if skip else row_sums[k])
             if second == never or not is_distinct(np.int64(best), np.int64(second),
                                                    uniqueness):
@@ -230,27 +213,24 @@ def _select_row(col_sums, row_sums, zero_row, never, w, dmin, csw, tau, rule, un
 
 @njit(**SERIAL)
 def _stripe(left_p, right_rev, y0, y1, w, dmin, cost, csw, tau, rule, uniqueness, slack,
-            col_sums, row_sums, zero_row, never, claims, disp, min_cost, evaluated):
+            col_sums, row_sums, zero_row, zero_pixels, never, claims, disp, min_cost,
+            evaluated):
     """Match image rows y0 <= y < y1 into disp, min_cost and evaluated (per row) there.
 
     left_p: (H + w - 1, Wp) padded left.  right_rev: the padded right, columns reversed.
-    col_sums: (Wp, D) and row_sums: (D,) accumulators; claims: int64 (W,) reversed
-    B-map. All scratch.
+    col_sums: (Wp, D) and row_sums: (D,) accumulators, zero_row (D,) zeros of their dtype;
+    zero_pixels: (Wp,) zeros of the images' dtype; claims: int64 (W,) reversed B-map.
+    All scratch.
     """
     col_sums[:] = 0
-    for a in range(w):  # the window of padded rows y0 .. y0 + w - 1
-        _column_add(left_p[y0 + a], right_rev[y0 + a], col_sums, dmin, cost)
+    for a in range(w):  # the window of padded rows y0 .. y0 + w - 1, each added once
+        _shift_columns(left_p[y0 + a], right_rev[y0 + a], zero_pixels, zero_pixels,
+                       col_sums, dmin, cost)
     for y in range(y0, y1):
         if y > y0:
             # Move down: row y + w - 1 enters the window, row y - 1 leaves (the _sub row).
-            enter_l, enter_r = left_p[y + w - 1], right_rev[y + w - 1]
-            leave_l, leave_r = left_p[y - 1], right_rev[y - 1]
-            if cost == SAD:
-                _column_shift_sad(enter_l, enter_r, leave_l, leave_r, col_sums, dmin)
-            elif cost == SSD:
-                _column_shift_ssd(enter_l, enter_r, leave_l, leave_r, col_sums, dmin)
-            else:
-                _column_shift_shd(enter_l, enter_r, leave_l, leave_r, col_sums, dmin)
+            _shift_columns(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
+                           right_rev[y - 1], col_sums, dmin, cost)
         evaluated[y] = _select_row(col_sums, row_sums, zero_row, never, w, dmin, csw, tau,
                                    rule, uniqueness, slack, claims, disp[y], min_cost[y])
 
@@ -260,8 +240,8 @@ def _fast_driver(left_p, right_rev, stripes, w, dmin, dmax, cost, csw, tau, rule
                  slack, acc_max, disp, min_cost):
     """Run row stripes in parallel; each iteration owns its sums and B-map.
 
-    stripes: int64 (n, 2), [start, end) rows of each stripe.  acc_max: (1,) array of the accumulator
-    dtype holding its maximum.  disp: int32 (H, W) out.  min_cost: int64 (H, W) out.
+    stripes: int64 (n, 2), [start, end) rows of each stripe.  acc_max: (1,) array of the
+    accumulator dtype holding its maximum.  disp: int32 (H, W) out.  min_cost: int64 (H, W) out.
     Returns int64 (H,), candidates evaluated per row.
     """
     n = stripes.shape[0]
@@ -273,10 +253,11 @@ def _fast_driver(left_p, right_rev, stripes, w, dmin, dmax, cost, csw, tau, rule
         col_sums = np.zeros((wp, ndisp), acc_max.dtype)
         row_sums = np.zeros(ndisp, acc_max.dtype)
         zero_row = np.zeros(ndisp, acc_max.dtype)
+        zero_pixels = np.zeros(wp, left_p.dtype)
         claims = np.empty(width, np.int64)
         _stripe(left_p, right_rev, stripes[i, 0], stripes[i, 1], w, dmin, cost, csw, tau, rule,
-                uniqueness, slack, col_sums, row_sums, zero_row, acc_max[0], claims, disp,
-                min_cost, evaluated)
+                uniqueness, slack, col_sums, row_sums, zero_row, zero_pixels, acc_max[0],
+                claims, disp, min_cost, evaluated)
     return evaluated
 
 
@@ -321,8 +302,8 @@ def match_fast(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False,
     with thread_count(threads) as tc:
         stripes = stripe_bounds(height, p.window, tc.n, p.rows)
         per_row = _fast_driver(left_p, right_rev, stripes, p.window, p.dmin, p.dmax, p.cost,
-                                  p.csw, p.tau, p.rule, p.uniqueness, p.slack, acc_max, disp,
-                                  min_cost)
+                               p.csw, p.tau, p.rule, p.uniqueness, p.slack, acc_max, disp,
+                               min_cost)
     if p.rows.size != height:  # only the sampled rows were computed
         disp, min_cost = disp[p.rows], min_cost[p.rows]
     evaluated = int(per_row[p.rows].sum())

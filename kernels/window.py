@@ -57,6 +57,12 @@ def _window_cost(left_p, right_p, top, xl, xr, w, cost):
 
 
 @njit(**INLINE)
+def blocked(claim, x, slack):
+    """Whether a claim (the claimant's column, or -1) blocks pixel x: x - claimant > slack."""
+    return claim >= 0 and x - claim > slack
+
+
+@njit(**INLINE)
 def is_distinct(best, second, uniqueness):
     """The unique rule's test: a second-best cost exists and beats best by uniqueness %."""
     return second >= 0 and second * 100 > best * (100 + uniqueness)
@@ -81,8 +87,7 @@ def _match_row(left_p, right_p, y, w, dmin, dmax, cost, csw, tau, rule, uniquene
         best_d = INVALID
         best = np.int64(-1)
         for d in range(dmin, min(dmax, x) + 1):
-            claimant = claims[x - d]
-            if csw and claimant >= 0 and x - claimant > slack:
+            if csw and blocked(claims[x - d], x, slack):
                 costs[d - dmin] = -1
                 continue
             c = _window_cost(left_p, right_p, y, x, x - d, w, cost)
