@@ -8,7 +8,7 @@ import click
 from . import options as opt
 from . import paper
 from .datasets import DataError, load
-from .engine import paper_tau, run_match, warm_up
+from .engine import load_kernels, paper_tau, run_match, warm_up
 from .report import emit
 from .scoring import THRESHOLDS, score
 
@@ -100,7 +100,8 @@ def bench_rows(pair, cost, tau, window, dmin, dmax, repeat, threads, engine="win
             "rule": rule,
             "tau": tau_value,
             "tau_source": tau_source,
-            "uniqueness": result_uniqueness(rule, cost, uniqueness),
+            "uniqueness": (load_kernels().contract.resolve_uniqueness(cost, uniqueness)
+                           if rule == "unique" else None),
             "window": window,
             "dmin": dmin,
             "dmax": dmax,
@@ -122,14 +123,6 @@ def bench_rows(pair, cost, tau, window, dmin, dmax, repeat, threads, engine="win
             "paper_time_reduced": paper_row[1] if paper_row else None,
         })
     return rows
-
-
-def result_uniqueness(rule, cost, uniqueness):
-    from kernels.contract import DEFAULT_UNIQUENESS
-
-    if rule != "unique":
-        return None
-    return DEFAULT_UNIQUENESS[cost] if uniqueness is None else uniqueness
 
 
 def caption_for(pairs, preset_paper, window, threads, repeat, compile_s):

@@ -58,6 +58,5 @@ def estimate_tau(left, right, sample_rows=32, **options):
     height = left.shape[0]
     rows = np.unique(np.linspace(0, height - 1, min(sample_rows, height)).round().astype(int))
     options = dict(options, csw=False, rows=rows)
-    options.pop("tau", None)
     result = run_match(left, right, **options)
     return paper_tau(result.min_cost)

@@ -9,7 +9,7 @@ from . import options as opt
 from .datasets import DataError, load
 from .engine import paper_tau, run_match
 from .match import check_output, load_pair
-from .report import emit
+from .report import emit, pyplot, save_figure
 
 COLUMNS = [("low", "From", 0), ("high", "To", 0), ("count", "Pixels", 0),
            ("share", "Share (%)", 1), ("bar", "", 0)]
@@ -25,15 +25,7 @@ def histogram_rows(min_cost, bins=10):
 
 
 def plot(path, min_cost, tau, title):
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise click.ClickException("--plot needs matplotlib: pip install 'csw[plot]'") from None
-    from .imageio_utils import atomic_write
-
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.5))
     ax.hist(min_cost[min_cost >= 0].ravel(), bins=10, color="#4878a8", edgecolor="white")
     ax.axvline(tau, color="#c03030", linestyle="--", label=f"paper's tau = {tau:g}")
@@ -42,8 +34,7 @@ def plot(path, min_cost, tau, title):
     ax.set_title(title)
     ax.legend()
     fig.tight_layout()
-    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png", dpi=120))
-    plt.close(fig)
+    save_figure(fig, path, dpi=120)
 
 
 @click.command(short_help="Histogram of the minimum-cost map m (the paper's Fig. 9).")

@@ -5,7 +5,7 @@ import click
 from . import options as opt
 from .datasets import DataError, load
 from .engine import paper_tau, run_match
-from .report import emit
+from .report import emit, pyplot, save_figure
 from .scoring import bad1_all, score
 
 DEFAULT_TAUS = "0.25x,0.5x,1x,1.5x,2x,3x,5x,none"
@@ -90,15 +90,7 @@ def sweep_rows(pair, cost, rules, taus, uniquenesses, window, dmax, threads, pro
 
 def plot(path, rows, title):
     """Work saved (x) against bad-1 (y): one curve per rule and uniqueness."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise click.ClickException("--plot needs matplotlib: pip install 'csw[plot]'") from None
-    from .imageio_utils import atomic_write
-
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     plain = rows[0]["error_rate"]
     ax.axhline(plain, color="#555555", linestyle="--", label=f"plain ({plain:.2f}%)")
@@ -125,8 +117,7 @@ def plot(path, rows, title):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)
 
 
 @click.command(short_help="Sweep tau and CSW rules: work saved against bad-1.")

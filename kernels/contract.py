@@ -131,8 +131,7 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
     slack = RULE_SLACK[RULES[rule]] if slack is None else int(slack)
     if not 0 <= slack <= 1_000_000:
         raise ValueError(f"slack must be >= 0, got {slack}")
-    if uniqueness is None:
-        uniqueness = DEFAULT_UNIQUENESS[cost]
+    uniqueness = resolve_uniqueness(cost, uniqueness)
     if isinstance(uniqueness, bool) or int(uniqueness) != uniqueness or \
             not 0 <= uniqueness <= 1000:
         raise ValueError(f"uniqueness must be a whole percentage from 0 to 1000, got "
@@ -154,6 +153,11 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
     params = Params(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule],
                     int(uniqueness), slack, rows)
     return left, right, params
+
+
+def resolve_uniqueness(cost, uniqueness):
+    """The unique rule's margin in percent: as given, or the cost's default."""
+    return DEFAULT_UNIQUENESS[cost] if uniqueness is None else uniqueness
 
 
 def candidate_count(width, dmin, dmax):
