@@ -4,11 +4,8 @@ Run by scripts/reproduce_table2.sh (make bench). Every figure comes from `csw be
 --format json` in this run; the statements under each table are computed from them.
 """
 
-import datetime
-import json
 import os
 import platform
-import subprocess
 import sys
 from pathlib import Path
 
@@ -17,6 +14,7 @@ import numpy as np
 from csw_cli import __version__
 from csw_cli import datasets as D
 from csw_cli.imageio_utils import read_image
+from report_common import cpu_name, fmt, now_utc, run_json
 
 REPEAT = os.environ.get("CSW_BENCH_REPEAT", "5")
 
@@ -27,13 +25,7 @@ def bench(*args):
         cmd[2:2] = ["--engine", "window"]
     if "--csw-rule" not in args:
         cmd[2:2] = ["--csw-rule", "literal"]
-    print("+", " ".join(cmd), file=sys.stderr, flush=True)
-    out = subprocess.run(cmd, check=True, capture_output=True, text=True)
-    return json.loads(out.stdout), " ".join(cmd[:1] + cmd[1:])
-
-
-def fmt(value, digits=2):
-    return "" if value is None else f"{value:.{digits}f}"
+    return run_json(cmd), " ".join(cmd)
 
 
 def table(rows, paper=True):
@@ -103,23 +95,15 @@ def tsukuba_plain_stats():
 
 
 def machine():
-    cpu = "unknown CPU"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
     import numba
 
-    return (f"{cpu}, {os.cpu_count()} logical cores, {platform.system()} "
+    return (f"{cpu_name()}, {os.cpu_count()} logical cores, {platform.system()} "
             f"{platform.release()}; Python {platform.python_version()}, numba "
             f"{numba.__version__}, numpy {np.__version__}, csw {__version__}")
 
 
 def main(path):
-    today = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    today = now_utc()
     tsukuba, cmd_tsukuba = bench("-d", "tsukuba", "--preset", "paper", "--cost",
                                  "sad,ssd,shd", "--paper-figures")
     scenes2006 = ["wood1", "baby1", "bowling1", "baby1-half", "bowling1-half"]

@@ -5,9 +5,6 @@ Run by scripts/tradeoff.sh (make tradeoff). Every figure comes from `csw sweep` 
 the kernels in this run.
 """
 
-import datetime
-import json
-import subprocess
 import sys
 from pathlib import Path
 
@@ -16,6 +13,7 @@ import numpy as np
 import kernels
 from csw_cli import datasets as D
 from csw_cli.engine import paper_tau
+from report_common import fmt, now_utc, run_json
 
 TARGETS = {"tsukuba": (40.0, 0.3), "cones": (30.0, 0.5), "teddy": (30.0, 0.5),
            "venus": (30.0, 0.5)}
@@ -27,14 +25,8 @@ def sweep(name, out_dir, cost="sad", extra=()):
     plot = out_dir / "img" / f"tradeoff-{name}{'' if cost == 'sad' else '-' + cost}.png"
     cmd = ["csw", "sweep", "-d", name, "--cost", cost, "--dmax", str(dmax), "--format",
            "json", "--plot", str(plot), *extra]
-    print("+", " ".join(cmd), file=sys.stderr, flush=True)
-    rows = json.loads(subprocess.run(cmd, check=True, capture_output=True,
-                                     text=True).stdout)
+    rows = run_json(cmd)
     return rows, " ".join(cmd[:cmd.index("--format")]), plot.relative_to(out_dir)
-
-
-def fmt(v, digits=2):
-    return "" if v is None else f"{v:.{digits}f}"
 
 
 def table(rows):
@@ -149,7 +141,7 @@ def ablation(name):
 def main(out):
     out = Path(out)
     (out.parent / "img").mkdir(parents=True, exist_ok=True)
-    today = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    today = now_utc()
     names = D.names()
     mech = [mechanism(n) for n in ("tsukuba", "cones", "teddy", "venus")]
     parts = {n: ablation(n) for n in ("tsukuba", "cones", "teddy", "venus")}
