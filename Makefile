@@ -9,17 +9,20 @@ $(PY):
 	python3 -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 
-# One stamp per set of extras, rebuilt when pyproject.toml changes.
+# One stamp per set of extras, rebuilt when pyproject.toml changes.  setuptools' editable
+# install prints an "InformationOnly" UserWarning about folders named like the package
+# (csw/ is ours, on purpose); it is noise for a user running make, so it is filtered.
+PIP_INSTALL := PYTHONWARNINGS=ignore::UserWarning $(PY) -m pip install -q
 $(VENV)/.installed-base: pyproject.toml | $(PY)
-	$(PY) -m pip install -q -e .
+	$(PIP_INSTALL) -e .
 	touch $@
 
 $(VENV)/.installed-test: pyproject.toml | $(PY)
-	$(PY) -m pip install -q -e '.[test]'
+	$(PIP_INSTALL) -e '.[test]'
 	touch $@
 
 $(VENV)/.installed-dev: pyproject.toml | $(PY)
-	$(PY) -m pip install -q -e '.[dev]'
+	$(PIP_INSTALL) -e '.[dev]'
 	touch $@
 
 run: $(VENV)/.installed-base

@@ -1,8 +1,5 @@
-"""csw: stereo matching with the Constrained Sliding Window algorithm (the CLI)."""
+"""The ``csw`` command line: Click commands that parse, call the csw library and print."""
 
-from importlib.metadata import PackageNotFoundError, version
+from csw import __version__
 
-try:
-    __version__ = version("csw")
-except PackageNotFoundError:  # running from a source tree that was not installed
-    __version__ = "0.0.0+unknown"
+__all__ = ["__version__"]

@@ -2,8 +2,9 @@
 
 import click
 
+from csw.datasets import DATASETS, SYNTHETIC, SYNTHETIC_DMAX, SYNTHETIC_SIZE, is_local
+
 from . import options as opt
-from .datasets import DATASETS, SYNTHETIC, SYNTHETIC_DMAX, SYNTHETIC_SIZE, is_local
 from .report import emit
 
 COLUMNS = [("name", "Dataset", 0), ("size", "Size", 0), ("range", "Disparities", 0),

@@ -1,24 +1,25 @@
-"""``csw match``: one rectified pair in, one disparity map out."""
+"""``csw match``: one rectified pair in, one disparity map out; or many pairs into a folder."""
 
 import os
-import time
 from pathlib import Path
 
 import click
 import numpy as np
 
-from . import options as opt
-from .engine import estimate_tau, run_match, warm_up
-from .imageio_utils import (
+from csw.batch import jobs_from_folders, jobs_from_manifest, match_many
+from csw.io import (
     OUTPUT_SUFFIXES,
     PNG_MAX_DISPARITY,
-    ImageError,
     colorize,
     read_image,
     write_disparity,
     write_float_pfm,
     write_png,
 )
+from csw.matching import match as match_pair
+from csw.tau import tau_label
+
+from . import options as opt
 
 
 def check_output(path, suffixes, param_hint):
@@ -60,10 +61,8 @@ def load_pair(left_path, right_path):
     """Read both images as gray, or fail with a usage error naming the bad one."""
     images = []
     for hint, path in (("LEFT", left_path), ("RIGHT", right_path)):
-        try:
+        with opt.library_errors(hint):
             images.append(read_image(path))
-        except ImageError as exc:
-            raise click.BadParameter(str(exc), param_hint=hint) from None
     return images
 
 
@@ -76,19 +75,72 @@ def write_outputs(writers):
             raise click.ClickException(f"can't write {what}: {exc.strerror or exc}") from None
 
 
-@click.command(short_help="Compute a disparity map for a rectified pair.")
-@click.argument("left", type=click.Path(dir_okay=False))
-@click.argument("right", type=click.Path(dir_okay=False))
-@click.option("--output", "-o", required=True, type=click.Path(dir_okay=False),
+def summary_line(result, shape):
+    """The one line ``csw match`` prints on stderr about a match."""
+    s = result.settings
+    height, width = shape
+    tau_note = " (auto)" if s["tau_source"] == "auto" else ""
+    mode = (f"CSW {s['csw_rule']} tau={tau_label(s['tau'])}{tau_note}" if s["csw"]
+            else "plain")
+    return (f"{width}x{height} d {s['dmin']}..{s['dmax']} {s['cost'].upper()} "
+            f"{s['window']}x{s['window']} {mode} ({s['engine']} engine): "
+            f"{result.seconds:.3f} s (compile {result.compile_seconds:.2f} s), evaluated "
+            f"{100.0 * result.evaluated / max(result.candidates, 1):.1f}% of candidates, "
+            f"invalid {100.0 * result.invalid_share:.1f}%")
+
+
+def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, settings):
+    """The batch form: pairs from two folders or a manifest, into OUTPUT_DIR."""
+    if output_dir is None:
+        raise click.UsageError("matching many pairs needs --output-dir DIR")
+    out = Path(output_dir)
+    if not out.is_dir():
+        raise click.BadParameter(f"folder {output_dir!r} does not exist; create it first",
+                                 param_hint="--output-dir")
+    with opt.library_errors("--manifest" if manifest else "LEFT"):
+        jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left, right)
+    with opt.library_errors():
+        report = match_many(jobs, out, suffix=suffix, overwrite=overwrite, progress=True,
+                            summary=summary, **settings)
+    counts = report["counts"]
+    summary_path = summary or out / "summary.json"
+    click.echo(f"{counts['ok']} matched, {counts['skipped']} skipped (output exists; "
+               f"--overwrite redoes them), {counts['failed']} failed; summary in "
+               f"{summary_path}", err=True)
+    for entry in report["pairs"]:
+        if entry["status"] == "failed":
+            click.echo(f"failed: {entry['name']}: {entry['error']}", err=True)
+    if counts["failed"]:
+        raise SystemExit(1)
+
+
+@click.command(short_help="Compute disparity maps for rectified pairs.")
+@click.argument("left", type=click.Path(), required=False)
+@click.argument("right", type=click.Path(), required=False)
+@click.option("--output", "-o", type=click.Path(dir_okay=False),
               help="Disparity map: .pfm (float32, inf invalid), .png (uint16 d*256, "
                    "0 invalid, KITTI) or .npy (float32, inf invalid).")
-@opt.engine_option
+@click.option("--manifest", type=click.Path(dir_okay=False, exists=True),
+              help="Many pairs: a CSV file of left,right[,name] lines (paths relative to "
+                   "it). Needs --output-dir.")
+@click.option("--output-dir", "-O", type=click.Path(file_okay=False),
+              help="Many pairs: the folder for their maps (NAME.pfm ...) and summary.json. "
+                   "LEFT and RIGHT may then be folders, paired by file name.")
+@click.option("--suffix", type=click.Choice(OUTPUT_SUFFIXES), default=".pfm",
+              show_default=True, help="Many pairs: the format of each map.")
+@click.option("--overwrite/--skip-existing", default=False, show_default=True,
+              help="Many pairs: redo pairs whose map exists (default: skip them, so a rerun "
+                   "resumes).")
+@click.option("--summary", type=click.Path(dir_okay=False),
+              help="Many pairs: where to write the JSON summary [default: "
+                   "OUTPUT_DIR/summary.json].")
+@opt.engine_option()
 @opt.cost_option()
-@opt.window_option
+@opt.window_option()
 @opt.dmin_option
 @opt.dmax_option
 @opt.csw_option
-@opt.rule_option
+@opt.rule_option()
 @opt.tau_option
 @opt.uniqueness_option
 @opt.threads_option
@@ -96,19 +148,48 @@ def write_outputs(writers):
               help="Also write an 8-bit colour PNG of the map (invalid black).")
 @click.option("--cost-map", type=click.Path(dir_okay=False),
               help="Also write the minimum-cost map m as PFM (inf where invalid).")
-def match(left, right, output, engine, cost, window, dmin, dmax, csw, rule, tau, uniqueness,
-          threads, preview, cost_map):
+def match(left, right, output, manifest, output_dir, suffix, overwrite, summary, engine, cost,
+          window, dmin, dmax, csw, rule, tau, uniqueness, threads, preview, cost_map):
     """Match LEFT against RIGHT (left is the reference) and write the disparity map.
 
     The match of left pixel x is right pixel x - d, for d in [DMIN, DMAX].  With --csw,
     each row keeps a map of right pixels already claimed by a match whose cost is at most
     TAU, and later searches on the row skip them.
 
+    Many pairs: give two folders (pairs by file name) or --manifest, and --output-dir.
+    A pair that fails is reported and the others go on; the exit code is 1 if any failed.
+
     \b
     Examples:
       csw match left.png right.png -o disp.pfm --dmax 64
       csw match left.png right.png -o disp.png --csw --tau auto --preview view.png
+      csw match lefts/ rights/ --output-dir maps/ --dmax 128
+      csw match --manifest pairs.csv -O maps/ --suffix .png
     """
+    if tau is not None and not csw:
+        raise click.BadParameter("tau applies only with CSW on; add --csw or drop --tau",
+                                 param_hint="--tau")
+    settings = dict(engine=engine, window=window, dmin=dmin, dmax=dmax, cost=cost, csw=csw,
+                    csw_rule=rule, tau=tau, uniqueness=uniqueness, threads=threads)
+    many = manifest is not None or output_dir is not None or \
+        (left is not None and Path(left).is_dir())
+    if many:
+        if output or preview or cost_map:
+            raise click.UsageError("-o, --preview and --cost-map are for one pair; many "
+                                   "pairs write into --output-dir")
+        if bool(manifest) == (left is not None):
+            raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")
+        if left is not None and (right is None or not Path(right).is_dir()):
+            raise click.UsageError("with a LEFT folder, RIGHT must be a folder too")
+        if suffix == ".png" and dmax > PNG_MAX_DISPARITY:
+            raise click.BadParameter(f"{dmax} is too large for a 16-bit PNG (d*256 must fit); "
+                                     "use --suffix .pfm or .npy", param_hint="--dmax")
+        return match_batch(left, right, manifest, output_dir, suffix, overwrite, summary,
+                           settings)
+    if left is None or right is None:
+        raise click.UsageError("give LEFT and RIGHT images (or folders with --output-dir)")
+    if output is None:
+        raise click.UsageError("give -o/--output FILE for the disparity map")
     output = check_output(output, OUTPUT_SUFFIXES, "--output")
     preview = check_output(preview, (".png",), "--preview")
     cost_map = check_output(cost_map, (".pfm",), "--cost-map")
@@ -118,18 +199,8 @@ def match(left, right, output, engine, cost, window, dmin, dmax, csw, rule, tau,
         raise click.BadParameter(f"{dmax} is too large for a 16-bit PNG (d*256 must fit); "
                                  "write .pfm or .npy instead", param_hint="--dmax")
     left_img, right_img = load_pair(left, right)
-    settings = dict(engine=engine, window=window, dmin=dmin, dmax=dmax, cost=cost,
-                    threads=threads)
-    compile_s = warm_up(engine=engine, cost=cost)
-    tau_note = ""
-    tau = opt.tau_value(tau, rule) if csw else -1
-    if tau == "auto":
-        tau = estimate_tau(left_img, right_img, **settings)
-        tau_note = " (auto)"
-    start = time.perf_counter()
-    result = run_match(left_img, right_img, csw=csw, tau=tau, rule=rule,
-                       uniqueness=uniqueness, **settings)
-    seconds = time.perf_counter() - start
+    with opt.library_errors():
+        result = match_pair(left_img, right_img, **settings)
 
     disp = result.disparity
     writers = [(str(output), lambda: write_disparity(output, disp))]
@@ -139,14 +210,4 @@ def match(left, right, output, engine, cost, window, dmin, dmax, csw, rule, tau,
         m = np.where(result.min_cost >= 0, result.min_cost, np.inf).astype(np.float32)
         writers.append((str(cost_map), lambda: write_float_pfm(cost_map, m)))
     write_outputs(writers)
-
-    height, width = disp.shape
-    invalid = 100.0 * np.mean(disp < 0)
-    tau_text = "none" if tau == float("inf") else f"{tau:g}"
-    mode = f"CSW {rule} tau={tau_text}{tau_note}" if csw else "plain"
-    click.echo(
-        f"{width}x{height} d {dmin}..{dmax} {cost.upper()} {window}x{window} {mode} "
-        f"({engine} engine): "
-        f"{seconds:.3f} s (compile {compile_s:.2f} s), evaluated "
-        f"{100.0 * result.evaluated / max(result.candidates, 1):.1f}% of candidates, "
-        f"invalid {invalid:.1f}%", err=True)
+    click.echo(summary_line(result, disp.shape), err=True)

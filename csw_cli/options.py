@@ -1,43 +1,70 @@
-"""Options shared by several commands, defined once (as rasterio's rio/options.py)."""
+"""Options shared by several commands, defined once (as rasterio's rio/options.py).
+
+Defaults come from the library's table (csw.defaults.MATCH) and choice lists from the
+kernels' registries, so the CLI repeats neither.
+"""
+
+import contextlib
 
 import click
 
+from csw import kernels
+from csw.datasets import DataError
+from csw.defaults import BENCH_REPEAT, BENCH_THREADS, MATCH
+from csw.io import ImageError
+from csw.tau import WORDS, parse_tau
+
+__all__ = ["BENCH_REPEAT", "WORDS"]  # re-exported for the commands, beside the options
+
+COSTS = list(kernels.COSTS)
+RULES = list(kernels.RULES)
+ENGINES = list(kernels.ENGINES)
+
+
+@contextlib.contextmanager
+def library_errors(hint=None):
+    """Turn the library's errors into Click's: a bad input file or value is a usage error
+    (exit 2, naming ``hint`` where given), as is bad data in a folder the user named;
+    registry data that can't be had is a runtime error (exit 1)."""
+    try:
+        yield
+    except ImageError as exc:
+        raise click.BadParameter(str(exc), param_hint=hint) from None
+    except DataError as exc:
+        if hint:
+            raise click.BadParameter(str(exc), param_hint=hint) from None
+        raise click.ClickException(str(exc)) from None
+    except ValueError as exc:
+        if hint:
+            raise click.BadParameter(str(exc), param_hint=hint) from None
+        raise click.UsageError(str(exc)) from None
+    except ImportError as exc:
+        raise click.ClickException(str(exc)) from None
+
 
 class TauType(click.ParamType):
-    """tau: a number, 'auto' for the paper's histogram rule, or 'none' for no cost
-    threshold (every match that the rule finds distinct claims its pixel)."""
+    """tau: a number >= 0, or one of the words csw.tau knows ('auto', 'none', and for
+    bench 'paper')."""
 
     name = "tau"
 
-    def __init__(self, extra=()):
-        self.words = ("auto", "none", *extra)
+    def __init__(self, words=("auto", "none")):
+        self.words = words
 
     def convert(self, value, param, ctx):
-        if isinstance(value, (int, float)) or value in self.words:
-            return value
         try:
-            number = float(value)
-        except ValueError:
-            self.fail(f"{value!r} is not a number or one of {', '.join(self.words)}", param,
-                      ctx)
-        if number != number:  # NaN
-            self.fail("tau must be a number, not NaN", param, ctx)
-        return number
-
-
-def tau_value(tau, rule):
-    """The number a tau option stands for; None (not given) means the rule's default:
-    'auto' for the literal rule, 'none' for the unique rule."""
-    if tau is None:
-        tau = "none" if rule == "unique" else "auto"
-    return float("inf") if tau == "none" else tau
+            return parse_tau(value, self.words)
+        except ValueError as exc:
+            self.fail(str(exc), param, ctx)
 
 
 def comma_list(*allowed):
     """A callback that reads a comma-separated option value as a list of the allowed
-    names, in the order given, each once."""
+    names, in the order given, each once.  None (not given) stays None."""
 
     def parse(ctx, param, value):
+        if value is None:
+            return None
         names = [v.strip().lower() for v in value.split(",") if v.strip()]
         unknown = [n for n in names if n not in allowed]
         if unknown or not names:
@@ -48,38 +75,69 @@ def comma_list(*allowed):
     return parse
 
 
-def cost_option(multiple=False):
+def cost_option(multiple=False, default=MATCH["cost"]):
     if multiple:
-        return click.option("--cost", "costs", default="sad", show_default=True,
-                            help="Comma-separated costs from sad, ssd, shd.",
-                            callback=comma_list("sad", "ssd", "shd"))
-    return click.option("--cost", type=click.Choice(["sad", "ssd", "shd"]), default="sad",
+        return click.option("--cost", "costs", default=default, show_default=True,
+                            help=f"Comma-separated costs from {', '.join(COSTS)}.",
+                            callback=comma_list(*COSTS))
+    return click.option("--cost", type=click.Choice(COSTS), default=default,
                         show_default=True, help="Matching cost.")
 
 
-window_option = click.option("--window", "-w", type=int, default=9, show_default=True,
-                             help="Odd window side (9 = the paper's 9x9).")
-dmin_option = click.option("--dmin", type=int, default=0, show_default=True,
-                           help="Smallest disparity searched.")
-dmax_option = click.option("--dmax", type=int, default=64, show_default=True,
+def engine_option(multiple=False, default=MATCH["engine"]):
+    text = ("fast: running sums, O(1) per (pixel, disparity); window: a full window sum per "
+            "candidate, the paper's method, where CSW's skipped candidates save real time. "
+            "Both give identical results.")
+    if multiple:
+        return click.option("--engine", "engines", default=default, show_default=True,
+                            callback=comma_list(*ENGINES),
+                            help="Comma-separated engines. " + text)
+    return click.option("--engine", type=click.Choice(ENGINES), default=default,
+                        show_default=True, help=text)
+
+
+RULE_HELP = ("literal: the paper's rule, a match with m <= tau claims its right pixel for "
+             "good. unique: only distinct matches claim, and a claim does not bind the next "
+             "pixel; it keeps plain matching's accuracy (see reports/csw-tradeoff.md).")
+
+
+def rule_option(multiple=False, default=MATCH["csw_rule"]):
+    """--csw-rule, the same flag in every command."""
+    if multiple:
+        return click.option("--csw-rule", "rules", default=default, show_default=True,
+                            callback=comma_list(*RULES),
+                            help="Comma-separated CSW rules. " + RULE_HELP)
+    return click.option("--csw-rule", "rule", type=click.Choice(RULES), default=default,
+                        show_default=True, help=RULE_HELP)
+
+
+def window_option(default=MATCH["window"]):
+    return click.option("--window", "-w", type=int, default=default, show_default=True,
+                        help="Odd window side (9 = the paper's 9x9).")
+
+
+dmin_option = click.option("--dmin", type=click.IntRange(min=0), default=MATCH["dmin"],
+                           show_default=True, help="Smallest disparity searched.")
+dmax_option = click.option("--dmax", type=click.IntRange(min=0), default=MATCH["dmax"],
+                           show_default=True,
                            help="Largest disparity searched (less than the width).")
+dataset_dmax_option = click.option(
+    "--dmax", type=click.IntRange(min=0), default=None,
+    help="Largest disparity [default: the dataset's range].")
 threads_option = click.option("--threads", "-j", type=click.IntRange(min=1), default=None,
                               help="Threads for row-parallel matching [default: all cores].")
-csw_option = click.option("--csw/--no-csw", default=False, show_default=True,
+bench_threads_option = click.option("--threads", "-j", type=click.IntRange(min=1),
+                                    default=BENCH_THREADS, show_default=True,
+                                    help="Threads (1 = the paper's single core).")
+csw_option = click.option("--csw/--no-csw", default=MATCH["csw"], show_default=True,
                           help="Skip right pixels already claimed by a confident match.")
 tau_option = click.option(
     "--tau", type=TauType(), default=None,
     help="CSW threshold on the minimum cost: a number, 'auto' for the paper's rule (width "
          "of the first of 10 histogram bins), or 'none' [default: auto for the literal "
-         "rule, none for the unique rule].")
-rule_option = click.option(
-    "--csw-rule", "rule", type=click.Choice(["literal", "unique"]), default="literal",
-    show_default=True,
-    help="literal: the paper's rule, a match with m <= tau claims its right pixel for good. "
-         "unique: only distinct matches claim, and a claim does not bind the next pixel; it "
-         "keeps plain matching's accuracy (see reports/csw-tradeoff.md).")
+         "rule, none for the unique rule]. Needs --csw.")
 uniqueness_option = click.option(
-    "--uniqueness", type=click.IntRange(0, 1000), default=None,
+    "--uniqueness", type=click.IntRange(0, 1000), default=MATCH["uniqueness"],
     help="The unique rule's margin in percent: the best cost must beat every candidate 2 "
          "or more disparities away by this much [default: 12; 25 for SSD].")
 format_option = click.option(
@@ -88,18 +146,23 @@ format_option = click.option(
 
 
 def _dataset_names():
-    from .datasets import names
+    from csw.datasets import names
 
     return names()
 
 
 data_dir_option = click.option(
     "--data-dir", type=click.Path(file_okay=False), envvar="CSW_DATA_DIR",
-    help="Folder holding the datasets (default: $CSW_DATA_DIR, then the user cache, then "
-         "a download from the official Middlebury URLs).")
+    help="Folder holding the registered datasets (default: $CSW_DATA_DIR, then the user "
+         "cache, then a download from the official Middlebury URLs).")
 download_option = click.option(
     "--download/--no-download", default=True, show_default=True,
     help="Download missing dataset files from the official URLs into the user cache.")
+dataset_dir_option = click.option(
+    "--dataset-dir", "dataset_dirs", multiple=True, type=click.Path(file_okay=False),
+    help="A benchmark folder as published: a Middlebury 2014/2021 scene or a folder of "
+         "them, or a KITTI 2012/2015 training folder; every scene in it is used. Repeat "
+         "for several.")
 
 
 def dataset_option(multiple=True, required=True):
@@ -109,8 +172,23 @@ def dataset_option(multiple=True, required=True):
                         help="A registered dataset (see 'csw datasets')"
                              + ("; repeat for several." if multiple else "."))
 
-engine_option = click.option(
-    "--engine", type=click.Choice(["fast", "window"]), default="fast", show_default=True,
-    help="fast: running sums, O(1) per (pixel, disparity); window: a full window sum per "
-         "candidate, the paper's method, where CSW's skipped candidates save real time. "
-         "Both give identical results.")
+
+def pairs(datasets, dataset_dirs, data_dir, download):
+    """Every pair the options name, loaded one at a time: registered datasets first, then
+    each scene of each --dataset-dir.  Library errors become Click errors."""
+    from csw import datasets as registry
+    from csw import layouts
+
+    if not datasets and not dataset_dirs:
+        raise click.UsageError("give --dataset NAME or --dataset-dir PATH")
+    for name in datasets:
+        with library_errors():
+            pair = registry.load(name, data_dir, allow_download=download)
+        yield pair
+    for folder in dataset_dirs:
+        with library_errors():
+            scenes = layouts.scan(folder)
+        for scene in scenes:
+            with library_errors():
+                pair = scene.load()
+            yield pair

@@ -67,23 +67,3 @@ def _json_default(value):
     if hasattr(value, "item"):  # numpy scalars
         return value.item()
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
-
-
-def pyplot():
-    """matplotlib.pyplot on the file-only Agg backend, or a clear error without it."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise click.ClickException("--plot needs matplotlib: pip install 'csw[plot]'") from None
-    return plt
-
-
-def save_figure(fig, path, dpi=110):
-    """Write a figure as PNG atomically, then free it."""
-    from .imageio_utils import atomic_write
-
-    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi))
-    pyplot().close(fig)

@@ -1,30 +1,63 @@
-"""``csw score``: Middlebury-style error metrics of a disparity map."""
+"""``csw score``: Middlebury-style error metrics of a disparity map, or of a folder of maps."""
+
+from pathlib import Path
 
 import click
 import numpy as np
 
-from . import options as opt
-from .datasets import DataError, load, region_masks, scaled_gt
-from .imageio_utils import ImageError, read_disparity, read_image
-from .report import emit
-from .scoring import THRESHOLDS, score
+from csw import layouts
+from csw.datasets import region_masks, scaled_gt
+from csw.io import OUTPUT_SUFFIXES, read_disparity, read_image
+from csw.scoring import THRESHOLDS, metric_rows, pooled_rows, score
 
-COLUMNS = [("region", "Region", 0), ("pixels", "Pixels", 0)] + [
+from . import options as opt
+from .report import emit
+
+COLUMNS = [("scene", "Scene", 0), ("region", "Region", 0), ("pixels", "Pixels", 0)] + [
     (f"bad_{t:g}", f"bad-{t:g} (%)", 2) for t in THRESHOLDS] + [
     ("invalid", "Invalid (%)", 2), ("mae", "MAE", 3), ("rms", "RMS", 3)]
 
 
 def _read(reader, path, hint, *args):
-    try:
+    with opt.library_errors(hint):
         return reader(path, *args)
-    except ImageError as exc:
-        raise click.BadParameter(str(exc), param_hint=hint) from None
+
+
+def truth_from_files(gt, gt_scale, masks, border):
+    """(gt, regions) from --gt, --gt-scale, --mask and --border."""
+    if str(gt).lower().endswith((".pfm", ".npy")):
+        truth = _read(read_disparity, gt, "--gt", gt_scale)
+    else:
+        raw = _read(read_image, gt, "--gt")
+        default = 256.0 if raw.dtype == np.uint16 else 1.0
+        truth = scaled_gt(raw, gt_scale or default)
+    mask_images = {}
+    for i, spec in enumerate(masks):
+        name, _, path = spec.rpartition("=")
+        mask_images[name or f"mask{i + 1}"] = _read(read_image, path, "--mask")
+    with opt.library_errors("--mask"):
+        return truth, region_masks(np.isfinite(truth), border or 0, mask_images)
+
+
+def with_border(pair, border):
+    """The pair's regions, with --border replacing the dataset's own where given."""
+    if border is None:
+        return dict(pair.masks)
+    regions = region_masks(np.isfinite(pair.gt), border, {})
+    regions.update({k: v & regions["all"] for k, v in pair.masks.items() if k != "all"})
+    return regions
+
+
+def scene_map(folder, scene):
+    """The map for ``scene`` in a folder of maps: SCENE.pfm, .png or .npy."""
+    found = [folder / f"{scene}{s}" for s in OUTPUT_SUFFIXES if (folder / f"{scene}{s}").is_file()]
+    return found[0] if found else None
 
 
 @click.command(short_help="Score a disparity map against ground truth.")
-@click.argument("disp", type=click.Path(dir_okay=False))
+@click.argument("disp", type=click.Path(exists=False))
 @click.option("--gt", type=click.Path(dir_okay=False),
-              help="Ground-truth file (or use --dataset).")
+              help="Ground-truth file (or use --dataset / --dataset-dir).")
 @click.option("--gt-scale", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Divide stored GT values by this (tsukuba 16, venus 8, cones 4, "
                    "2006 third size 3) [default: the dataset's, 256 for 16-bit PNG, 1 else].")
@@ -33,60 +66,77 @@ def _read(reader, path, hint, *args):
 @click.option("--border", type=click.IntRange(min=0), default=None,
               help="Pixels excluded on every side [default: the dataset's, else 0].")
 @opt.dataset_option(multiple=False, required=False)
+@click.option("--dataset-dir", type=click.Path(file_okay=False),
+              help="A benchmark folder as published (Middlebury 2014/2021 scene or folder "
+                   "of scenes, KITTI training folder): scales and masks come from it.")
+@click.option("--scene", help="With --dataset-dir holding several scenes and one DISP file: "
+                              "the scene it belongs to.")
 @opt.format_option
 @opt.data_dir_option
 @opt.download_option
-def score_cmd(disp, gt, gt_scale, masks, border, dataset, fmt, data_dir, download):
+def score_cmd(disp, gt, gt_scale, masks, border, dataset, dataset_dir, scene, fmt, data_dir,
+              download):
     """Score DISP (PFM, PNG d*256, or NPY) with bad-0.5/1/2/4, invalid, MAE and RMS.
 
     Invalid predictions count as bad. Regions: all known ground truth, plus nonocc and
-    disc where the dataset has those masks.
+    disc where the dataset has those masks.  With --dataset-dir, DISP may be a folder of
+    maps named after the scenes (SCENE.pfm, as 'csw match' writes them into
+    --output-dir): each scene is scored, then all of them pooled.
 
     \b
     Examples:
       csw score disp.pfm --dataset tsukuba
       csw score disp.pfm --gt truedisp.row3.col3.pgm --gt-scale 16 --border 18
+      csw score maps/ --dataset-dir MiddEval3/trainingQ
     """
-    if (gt is None) == (dataset is None):
-        raise click.UsageError("give either --gt FILE or --dataset NAME")
-    if dataset is not None:
-        if gt_scale is not None or masks:
-            raise click.UsageError("--gt-scale and --mask go with --gt; a --dataset brings "
-                                   "its own scale and masks")
-        try:
-            pair = load(dataset, data_dir, allow_download=download)
-        except DataError as exc:
-            raise click.ClickException(str(exc)) from None
-        truth = pair.gt
-        regions = dict(pair.masks)
-        if border is not None:
-            regions = region_masks(np.isfinite(truth), border, {})
-            regions.update({k: v & regions["all"] for k, v in pair.masks.items() if k != "all"})
+    sources = [s for s in (gt, dataset, dataset_dir) if s is not None]
+    if len(sources) != 1:
+        raise click.UsageError("give one of --gt FILE, --dataset NAME or --dataset-dir PATH")
+    if (dataset or dataset_dir) and (gt_scale is not None or masks):
+        raise click.UsageError("--gt-scale and --mask go with --gt; a dataset brings its own "
+                               "scale and masks")
+    if scene and not dataset_dir:
+        raise click.UsageError("--scene goes with --dataset-dir")
+    if Path(disp).is_dir():
+        if not dataset_dir:
+            raise click.UsageError("a folder of maps is scored against --dataset-dir")
+        return score_folder(Path(disp), dataset_dir, border, fmt)
+    if dataset_dir:
+        with opt.library_errors("--dataset-dir"):
+            pair = layouts.find_scene(dataset_dir, scene).load()
+        truth, regions = pair.gt, with_border(pair, border)
+    elif dataset:
+        pair = next(opt.pairs([dataset], [], data_dir, download))
+        truth, regions = pair.gt, with_border(pair, border)
     else:
-        if str(gt).lower().endswith((".pfm", ".npy")):
-            truth = _read(read_disparity, gt, "--gt", gt_scale)
-        else:
-            raw = _read(read_image, gt, "--gt")
-            default = 256.0 if raw.dtype == np.uint16 else 1.0
-            truth = scaled_gt(raw, gt_scale or default)
-        mask_images = {}
-        for i, spec in enumerate(masks):
-            name, _, path = spec.rpartition("=")
-            mask_images[name or f"mask{i + 1}"] = _read(read_image, path, "--mask")
-        regions = region_masks(np.isfinite(truth), border or 0, mask_images)
+        truth, regions = truth_from_files(gt, gt_scale, masks, border)
     pred = _read(read_disparity, disp, "DISP")
-    for name, region in regions.items():
-        if region.shape != truth.shape:
-            raise click.BadParameter(f"mask {name!r} is not the ground truth's size",
-                                     param_hint="--mask")
-    try:
+    with opt.library_errors("DISP"):
         metrics = score(pred, truth, regions)
-    except ValueError as exc:
-        raise click.UsageError(str(exc)) from None
-    rows = []
-    for region, m in metrics.items():
-        row = {"region": region, "pixels": m["pixels"], "invalid": m["invalid"],
-               "mae": m["mae"], "rms": m["rms"], "bad": {f"{t:g}": v for t, v in m["bad"].items()}}
-        row.update({f"bad_{t:g}": v for t, v in m["bad"].items()})
-        rows.append(row)
-    emit(rows, COLUMNS, fmt)
+    emit(metric_rows(metrics), COLUMNS[1:], fmt)
+
+
+def score_folder(maps, dataset_dir, border, fmt):
+    """Every scene of DATASET_DIR that has a map in MAPS, then the pooled total."""
+    with opt.library_errors("--dataset-dir"):
+        scenes = layouts.scan(dataset_dir)
+    rows, missing = [], []
+    for scene in scenes:
+        path = scene_map(maps, scene.name)
+        if path is None:
+            missing.append(scene.name)
+            continue
+        with opt.library_errors():
+            pair = scene.load()
+        pred = _read(read_disparity, path, "DISP")
+        with opt.library_errors("DISP"):
+            metrics = score(pred, pair.gt, with_border(pair, border))
+        rows += metric_rows(metrics, scene=scene.name)
+    if not rows:
+        raise click.ClickException(f"{maps} has no map named after a scene of {dataset_dir} "
+                                   f"(e.g. {scenes[0].name}.pfm)")
+    if missing:
+        click.echo(f"score: no map for {len(missing)} scene(s): {', '.join(missing[:8])}"
+                   + (" ..." if len(missing) > 8 else ""), err=True)
+    emit(rows + pooled_rows(rows, scene=f"total ({len(scenes) - len(missing)} scenes)"),
+         COLUMNS, fmt)

@@ -2,7 +2,7 @@
 
 import click
 
-from .synth import write_scene
+from csw.synth import write_scene
 
 
 def parse_size(ctx, param, value):

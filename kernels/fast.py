@@ -277,7 +277,7 @@ def stripe_bounds(height, window, threads, rows):
     return np.stack([edges[:-1], edges[1:]], axis=1)
 
 
-def match_fast(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False, tau=-1,
+def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                rule="literal", uniqueness=None, slack=None, rows=None, threads=None):
     """Match a rectified pair with running sums (same contract as match_window).
 

@@ -139,9 +139,8 @@ def pad_edge(image, h, dtype=np.uint16):
     return np.pad(image.astype(dtype, copy=False), h, mode="edge")
 
 
-def match_window(left, right, *, window=9, dmin=0, dmax=64, cost="sad", csw=False,
-                 tau=-1, rule="literal", uniqueness=None, slack=None, rows=None,
-                 threads=None):
+def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
+                 rule="literal", uniqueness=None, slack=None, rows=None, threads=None):
     """Match a rectified pair with full window sums (see the README's contract).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.

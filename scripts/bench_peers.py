@@ -17,11 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-import kernels
-from csw_cli import datasets as D
-from csw_cli.imageio_utils import write_png
-from csw_cli.scoring import score
-from csw_cli.synth import render
+from csw import datasets as D
+from csw import kernels
+from csw.io import write_png
+from csw.scoring import score
+from csw.synth import render
 from report_common import cpu_name, now_utc
 
 try:
@@ -67,7 +67,8 @@ def bench_pair(name, ndisp, repeat):
     variants = {}
     for threads in sorted({1, THREADS}):
         variants[f"csw {threads}t"] = (threads, lambda t=threads: kernels.match(
-            left, right, engine="fast", window=9, dmin=0, dmax=ndisp - 1, threads=t))
+            left, right, engine="fast", window=9, dmin=0, dmax=ndisp - 1, cost="sad",
+            threads=t))
         for filters in (True, False):
             bm = stereobm(ndisp, filters)
             label = f"bm{'' if filters else '-nofilter'} {threads}t"
@@ -99,7 +100,7 @@ def window_vs_fast(repeat):
     runs = {}
     for engine in ("window", "fast"):
         fn = lambda e=engine: kernels.match(pair.left, pair.right, engine=e, window=9,  # noqa: E731
-                                            dmax=15, threads=1)
+                                            dmin=0, dmax=15, cost="sad", threads=1)
         fn()
         runs[engine] = fn
     times = {e: [] for e in runs}

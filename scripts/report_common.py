@@ -1,11 +1,8 @@
 """What the report scripts in scripts/ share: the date, the CPU, number formatting, and
-running a csw command that prints JSON."""
+the csw command line that reruns a library call (printed in the reports)."""
 
 import datetime
-import json
 import platform
-import subprocess
-import sys
 from pathlib import Path
 
 
@@ -29,8 +26,20 @@ def fmt(value, digits=2):
     return "" if value is None else f"{value:.{digits}f}"
 
 
-def run_json(cmd):
-    """Run a csw command (echoed to stderr) and parse what it prints on stdout."""
-    print("+", " ".join(cmd), file=sys.stderr, flush=True)
-    out = subprocess.run(cmd, check=True, capture_output=True, text=True)
-    return json.loads(out.stdout)
+# Library keyword -> the csw flag that sets it, where the names differ.
+FLAGS = {"costs": "--cost", "engines": "--engine", "rules": "--csw-rule"}
+
+
+def command(name, datasets, options):
+    """The csw command that does what a library call with these options did."""
+    words = ["csw", name] + [w for d in datasets for w in ("-d", d)]
+    for key, value in options.items():
+        if value is None or value is False:
+            continue
+        flag = FLAGS.get(key, "--" + key.replace("_", "-"))
+        if value is True:
+            words.append(flag)
+        else:
+            words += [flag, ",".join(map(str, value)) if isinstance(value, (list, tuple))
+                      else str(value)]
+    return " ".join(words)

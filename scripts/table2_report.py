@@ -1,7 +1,8 @@
 """Write reports/table2.md: the paper's TABLE II measured here, beside the paper's figures.
 
-Run by scripts/reproduce_table2.sh (make bench). Every figure comes from `csw bench
---format json` in this run; the statements under each table are computed from them.
+Run by scripts/reproduce_table2.sh (make bench). Every figure comes from the library
+call that `csw bench` makes (csw.bench.run_bench) in this run; the statements under each
+table are computed from them.
 """
 
 import os
@@ -11,21 +12,26 @@ from pathlib import Path
 
 import numpy as np
 
-from csw_cli import __version__
-from csw_cli import datasets as D
-from csw_cli.imageio_utils import read_image
-from report_common import cpu_name, fmt, now_utc, run_json
+from csw import __version__, kernels
+from csw import datasets as D
+from csw.bench import run_bench
+from csw.io import read_image
+from csw.tau import paper_tau
+from report_common import command, cpu_name, fmt, now_utc
 
-REPEAT = os.environ.get("CSW_BENCH_REPEAT", "5")
+REPEAT = int(os.environ.get("CSW_BENCH_REPEAT", "5"))
 
 
-def bench(*args):
-    cmd = ["csw", "bench", "--repeat", REPEAT, "--format", "json", *args]
-    if "--engine" not in args:
-        cmd[2:2] = ["--engine", "window"]
-    if "--csw-rule" not in args:
-        cmd[2:2] = ["--csw-rule", "literal"]
-    return run_json(cmd), " ".join(cmd)
+def bench(datasets, **options):
+    """csw.bench.run_bench on registered datasets, by default with the window engine and
+    the literal rule (the paper's method); returns (rows, the equivalent csw command)."""
+    options = dict(engines=["window"], rules=["literal"], repeat=REPEAT, **options)
+    rows, _ = run_bench((D.load(n) for n in datasets), progress=print_progress, **options)
+    return rows, command("bench", datasets, options)
+
+
+def print_progress(step):
+    print(f"bench: {step}", file=sys.stderr, flush=True)
 
 
 def table(rows, paper=True):
@@ -83,13 +89,11 @@ def beyond_150(name):
 def tsukuba_plain_stats():
     """Per cost on Tsukuba (9x9, d 0..16): the tau of the paper's own rule (the first of
     10 histogram bins of plain m) and the smallest m."""
-    import kernels
-    from csw_cli.engine import paper_tau
-
     pair = D.load("tsukuba")
     stats = {}
     for cost in ("sad", "ssd", "shd"):
-        m = kernels.match(pair.left, pair.right, window=9, dmax=16, cost=cost).min_cost
+        m = kernels.match(pair.left, pair.right, engine="fast", window=9, dmin=0, dmax=16,
+                          cost=cost).min_cost
         stats[cost] = {"rule_tau": paper_tau(m), "min_m": int(m[m >= 0].min())}
     return stats
 
@@ -104,29 +108,25 @@ def machine():
 
 def main(path):
     today = now_utc()
-    tsukuba, cmd_tsukuba = bench("-d", "tsukuba", "--preset", "paper", "--cost",
-                                 "sad,ssd,shd", "--paper-figures")
+    tsukuba, cmd_tsukuba = bench(["tsukuba"], preset="paper", costs=["sad", "ssd", "shd"])
+    cmd_tsukuba += " --paper-figures"
     scenes2006 = ["wood1", "baby1", "bowling1", "baby1-half", "bowling1-half"]
-    args2006 = [a for n in scenes2006 for a in ("-d", n)]
-    preset2006, cmd_preset2006 = bench(*args2006, "--preset", "paper", "--cost", "sad")
+    preset2006, cmd_preset2006 = bench(scenes2006, preset="paper", costs=["sad"])
     # The registry range covers the ground truth, unlike the scaled paper range.
     full2006 = []
     cmds_full2006 = []
     for name in scenes2006:
-        rows, cmd = bench("-d", name, "--preset", "paper", "--cost", "sad", "--dmax",
-                          str(D.DATASETS[name].dmax))
+        rows, cmd = bench([name], preset="paper", costs=["sad"], dmax=D.DATASETS[name].dmax)
         full2006 += rows
         cmds_full2006.append(cmd)
     others = ["venus", "sawtooth", "cones", "teddy", "synthetic"]
-    other_rows, cmd_others = bench(*[a for n in others for a in ("-d", n)], "--cost",
-                                   "sad,ssd,shd", "--tau", "auto")
+    other_rows, cmd_others = bench(others, costs=["sad", "ssd", "shd"], tau="auto")
     shares = {n: beyond_150(n) for n in ["wood1", "baby1", "bowling1"]}
     stats = tsukuba_plain_stats()
-    unique_rows, cmd_unique = bench("-d", "tsukuba", "--dmax", "16", "--cost", "sad",
-                                    "--csw-rule", "literal,unique", "--tau", "auto")
+    unique_rows, cmd_unique = bench(["tsukuba"], dmax=16, costs=["sad"],
+                                    rules=["literal", "unique"], tau="auto")
     for name in ("venus", "cones", "teddy"):
-        rows, _ = bench("-d", name, "--cost", "sad", "--csw-rule", "literal,unique",
-                        "--tau", "auto")
+        rows, _ = bench([name], costs=["sad"], rules=["literal", "unique"], tau="auto")
         unique_rows += rows
     by = {(r["cost"], r["csw"]): r for r in tsukuba}
 

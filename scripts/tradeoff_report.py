@@ -1,8 +1,8 @@
 """Write reports/csw-tradeoff.md: CSW's work saved against bad-1 for every dataset, the
 literal rule against the unique rule, with plots in reports/img/.
 
-Run by scripts/tradeoff.sh (make tradeoff). Every figure comes from `csw sweep` or from
-the kernels in this run.
+Run by scripts/tradeoff.sh (make tradeoff). Every figure comes from the library call
+that `csw sweep` makes (csw.sweep.sweep_rows) or from the kernels in this run.
 """
 
 import sys
@@ -10,23 +10,30 @@ from pathlib import Path
 
 import numpy as np
 
-import kernels
-from csw_cli import datasets as D
-from csw_cli.engine import paper_tau
-from report_common import fmt, now_utc, run_json
+from csw import datasets as D
+from csw import kernels, plots
+from csw.scoring import bad1_all
+from csw.sweep import DEFAULT_TAUS, sweep_rows
+from csw.tau import paper_tau, parse_sweep
+from report_common import command, fmt, now_utc
 
 TARGETS = {"tsukuba": (40.0, 0.3), "cones": (30.0, 0.5), "teddy": (30.0, 0.5),
            "venus": (30.0, 0.5)}
 DMAX = {"tsukuba": 16}  # the paper's range; the registry's elsewhere
 
 
-def sweep(name, out_dir, cost="sad", extra=()):
-    dmax = DMAX.get(name, D.DATASETS[name].dmax if name in D.DATASETS else D.SYNTHETIC_DMAX)
+def sweep(name, out_dir, cost="sad", taus=DEFAULT_TAUS):
+    """What `csw sweep -d NAME --plot ...` does, through the library: (rows, the command,
+    the plot's path relative to the report)."""
+    pair = D.load(name)
+    dmax = DMAX.get(name, pair.dmax)
     plot = out_dir / "img" / f"tradeoff-{name}{'' if cost == 'sad' else '-' + cost}.png"
-    cmd = ["csw", "sweep", "-d", name, "--cost", cost, "--dmax", str(dmax), "--format",
-           "json", "--plot", str(plot), *extra]
-    rows = run_json(cmd)
-    return rows, " ".join(cmd[:cmd.index("--format")]), plot.relative_to(out_dir)
+    print(f"sweep: {name} {cost}", file=sys.stderr, flush=True)
+    rows = sweep_rows(pair, cost=cost, rules=["literal", "unique"], taus=parse_sweep(taus),
+                      window=9, dmax=dmax)
+    plots.tradeoff(plot, rows, f"{name}: {cost.upper()} 9x9, d 0..{dmax}")
+    options = dict(cost=cost, dmax=dmax, tau_range=None if taus == DEFAULT_TAUS else taus)
+    return rows, command("sweep", [name], options), plot.relative_to(out_dir)
 
 
 def table(rows):
@@ -51,9 +58,10 @@ def mechanism(name, tau_factor=1.0):
     match pointed at it with m <= tau). How far back is x', and was x' itself right?"""
     pair = D.load(name)
     dmax = DMAX.get(name, pair.dmax)
-    plain = kernels.match(pair.left, pair.right, engine="fast", dmax=dmax)
+    settings = dict(engine="fast", window=9, dmin=0, dmax=dmax, cost="sad")
+    plain = kernels.match(pair.left, pair.right, **settings)
     tau = paper_tau(plain.min_cost) * tau_factor
-    csw = kernels.match(pair.left, pair.right, engine="fast", dmax=dmax, csw=True, tau=tau)
+    csw = kernels.match(pair.left, pair.right, csw=True, tau=tau, **settings)
     gt, known = pair.gt, pair.masks["all"]
 
     def good(disp):
@@ -123,17 +131,16 @@ region was not needed once distinctiveness decides the claims: τ then changes l
 
 def ablation(name):
     """Work saved and Δ bad-1 with each half of the unique rule switched on alone."""
-    from csw_cli.scoring import bad1_all
-
     pair = D.load(name)
     dmax = DMAX.get(name, pair.dmax)
-    plain = kernels.match(pair.left, pair.right, engine="fast", dmax=dmax)
+    settings = dict(engine="fast", window=9, dmin=0, dmax=dmax, cost="sad")
+    plain = kernels.match(pair.left, pair.right, **settings)
     base = bad1_all(plain.disparity, pair)
     out = []
     for label, options, tau in ABLATION:
         value = paper_tau(plain.min_cost) if tau == "auto" else float("inf")
-        result = kernels.match(pair.left, pair.right, engine="fast", dmax=dmax, csw=True,
-                               tau=value, **options)
+        result = kernels.match(pair.left, pair.right, csw=True, tau=value, **options,
+                               **settings)
         out.append((label, 100 * result.work_saved, bad1_all(result.disparity, pair) - base))
     return out
 
@@ -160,7 +167,7 @@ def main(out):
             f"| {fmt(lit['work_saved'], 1)}% / {lit['delta']:+.2f} "
             f"| {fmt(uni['work_saved'], 1)}% / {uni['delta']:+.2f} "
             f"| {'≥ {:.0f}% saved, Δ ≤ +{:.1f}'.format(*target) if target else ''} | {met} |")
-    other_costs = {c: sweep("tsukuba", out.parent, c, ("--tau-range", "1x,3x,none"))
+    other_costs = {c: sweep("tsukuba", out.parent, c, "1x,3x,none")
                    for c in ("ssd", "shd")}
 
     text = [f"""# CSW's trade-off: work saved against accuracy

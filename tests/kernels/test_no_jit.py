@@ -10,7 +10,7 @@ PROBE = """
 import sys, warnings
 import numpy as np
 sys.path.insert(0, {tests!r})
-import kernels
+from csw import kernels
 from oracle import oracle_match
 warnings.simplefilter("ignore")  # numpy warns when uint16 sums wrap, which is intended
 rng = np.random.default_rng(1)
@@ -20,7 +20,7 @@ for dtype, scale in ((np.uint8, 1), (np.uint16, 300)):
     for cost in ("sad", "ssd", "shd"):
         for engine in ("window", "fast"):
             for rule, tau in (("literal", 3000), ("unique", 1e18)):
-                got = kernels.match(left, right, engine=engine, window=3, dmax=5, cost=cost,
+                got = kernels.match(left, right, engine=engine, window=3, dmin=0, dmax=5, cost=cost,
                                     csw=True, tau=tau, rule=rule)
                 disp, mins, evaluated = oracle_match(left, right, 3, 0, 5, cost, True, tau,
                                                      rule=rule)
@@ -31,7 +31,7 @@ print("ok")
 
 
 def test_kernels_equal_the_oracle_with_the_jit_off():
-    tests = str(Path(__file__).parent)
+    tests = str(Path(__file__).parent.parent)  # where oracle.py is
     env = dict(os.environ, NUMBA_DISABLE_JIT="1")
     out = subprocess.run([sys.executable, "-c", PROBE.format(tests=tests)], env=env,
                          capture_output=True, text=True, timeout=600)

@@ -5,11 +5,11 @@ import json
 import pytest
 from click.testing import CliRunner
 
-import kernels
-from csw_cli import datasets as D
-from csw_cli.engine import paper_tau
+from csw import datasets as D
+from csw import kernels
+from csw.scoring import bad1_all
+from csw.tau import paper_tau
 from csw_cli.main import cli
-from csw_cli.scoring import bad1_all
 
 
 def invoke(*args):
@@ -24,13 +24,15 @@ def test_sweep_rows_match_the_kernels(tmp_path):
     # plain, 3 literal taus, 2 uniquenesses x 3 taus
     assert [r["rule"] for r in rows] == [None] + ["literal"] * 3 + ["unique"] * 6
     pair = D.load("synthetic")
-    plain = kernels.match(pair.left, pair.right, window=5, dmax=24)
+    plain = kernels.match(pair.left, pair.right, engine="fast", window=5, dmin=0, dmax=24,
+                          cost="sad")
     auto = paper_tau(plain.min_cost)
     assert rows[1]["tau"] == pytest.approx(0.5 * auto) and rows[2]["tau"] == 200
     for row in rows[1:]:
         tau = float("inf") if row["tau_label"] == "none" else row["tau"]
         got = kernels.match(pair.left, pair.right, window=5, dmax=24, csw=True, tau=tau,
-                            rule=row["rule"], uniqueness=row["uniqueness"])
+                            rule=row["rule"], uniqueness=row["uniqueness"], engine="fast",
+                            dmin=0, cost="sad")
         assert row["work_saved"] == pytest.approx(100 * got.work_saved)
         assert row["error_rate"] == pytest.approx(bad1_all(got.disparity, pair))
         assert row["delta"] == pytest.approx(row["error_rate"] - rows[0]["error_rate"])
@@ -48,7 +50,7 @@ def test_sweep_plot(tmp_path):
     (["--tau-range", "1:abc:2"], "a:b:step"),
     (["--tau-range", "5:1:0"], "a:b:step"),
     (["--uniqueness", "x"], "whole percentages"),
-    (["--rule", "greedy"], "literal, unique"),
+    (["--csw-rule", "greedy"], "literal, unique"),
     (["--plot", "p.jpg"], "unknown extension"),
 ])
 def test_sweep_bad_input(args, message):

@@ -12,9 +12,9 @@ import pytest
 
 PROBE = """
 import re, numpy as np
-from kernels import fast
+from csw.kernels import fast
 left = np.zeros((20, 40), np.uint8)
-fast.match_fast(left, left, window=9, dmax=16)
+fast.match_fast(left, left, window=9, dmax=16, dmin=0, cost="sad")
 asm = "\\n".join(fast._column_shift_sad.inspect_asm().values())
 print(*(len(re.findall(rf"\\bv?{op}\\b", asm)) for op in ("paddw", "psubw", "pmaxub",
                                                                "pminub")))

@@ -140,7 +140,7 @@ def write_scene(directory, width=450, height=375, dmax=64, seed=0):
     the left pixel is visible in the right image, Middlebury's mask convention)."""
     from pathlib import Path
 
-    from .imageio_utils import write_float_pfm, write_png
+    from .io import write_float_pfm, write_png
 
     left, right, gt, nonocc = render(width, height, dmax, seed)
     directory = Path(directory)

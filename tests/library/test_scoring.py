@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from csw_cli.scoring import score
+from csw.scoring import score
 
 
 def test_bad_thresholds_invalid_mae_rms_by_hand():

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from csw_cli import datasets as D
-from csw_cli.imageio_utils import read_image
+from csw import datasets as D
+from csw.io import read_image
 
 # Largest ground-truth disparity in pixels, from the stored maxima in SOURCES.md divided
 # by the documented scale (tsukuba 224/16, venus 158/8, cones 220/4, third size 215/3...).

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-import kernels
-from csw_cli import datasets as D
-from csw_cli.engine import paper_tau
+from csw import datasets as D
+from csw import kernels
+from csw.scoring import score
+from csw.tau import paper_tau
 from csw_cli.main import cli
-from csw_cli.scoring import score
 
 BENCH_KEYS = {"dataset", "size", "cost", "csw", "tau", "window", "dmin", "dmax",
               "error_rate", "bad", "invalid", "time_s", "time_reduced", "work_saved",
@@ -55,17 +55,18 @@ def test_bench_json_schema(synthetic_bench):
 def test_bench_rows_equal_the_kernels_own_output(synthetic_bench):
     pair = D.load("synthetic")
     for row in synthetic_bench:
-        plain = kernels.match(pair.left, pair.right, window=7, dmax=40, cost=row["cost"])
+        plain = kernels.match(pair.left, pair.right, engine="window", window=7, dmin=0,
+                              dmax=40, cost=row["cost"])
         tau = paper_tau(plain.min_cost)  # --tau defaults to auto: the paper's rule
         result = plain
         if row["rule"] == "literal":
             assert row["tau"] == pytest.approx(tau)
             result = kernels.match(pair.left, pair.right, window=7, dmax=40,
-                                   cost=row["cost"], csw=True, tau=tau)
+                                   cost=row["cost"], csw=True, tau=tau, engine="window", dmin=0)
         elif row["rule"] == "unique":  # no tau by default, per-cost uniqueness
             result = kernels.match(pair.left, pair.right, window=7, dmax=40,
                                    cost=row["cost"], csw=True, tau=float("inf"),
-                                   rule="unique")
+                                   rule="unique", engine="window", dmin=0)
         if row["csw"]:
             assert row["work_saved"] == pytest.approx(100 * result.work_saved)
         metrics = score(result.disparity, pair.gt, pair.masks)
@@ -119,7 +120,7 @@ def test_datasets_lists_registry_as_json(tmp_path):
 
 
 def test_score_command_by_hand(tmp_path):
-    from csw_cli.imageio_utils import write_disparity, write_png
+    from csw.io import write_disparity, write_png
 
     gt = np.full((4, 5), 40, np.uint8)  # scale 4 -> 10 px everywhere
     gt[0, 0] = 0  # unknown
@@ -145,7 +146,8 @@ def test_hist_shows_the_rule_tau():
     result = invoke("hist", "-d", "synthetic", "--dmax", 16, "--window", 3)
     assert result.exit_code == 0, result.output
     pair = D.load("synthetic")
-    plain = kernels.match(pair.left, pair.right, window=3, dmax=16)
+    plain = kernels.match(pair.left, pair.right, engine="fast", window=3, dmin=0, dmax=16,
+                          cost="sad")
     assert f"tau = {paper_tau(plain.min_cost):g}" in result.stdout
     assert len(result.stdout.strip().splitlines()) == 2 + 2 + 10
 

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import kernels
+from csw import kernels
 from oracle import oracle_match
 
 ENGINES = sorted(kernels.ENGINES)
@@ -107,5 +107,5 @@ def test_tiny_and_constant_images(engine, shape):
                 assert_equal_to_oracle(engine, left, right, window=1, dmin=dmin, dmax=dmax,
                                        cost="sad", csw=True, tau=40, rule=rule)
     plain = kernels.match(constant, constant, engine=engine, window=1, dmin=0,
-                          dmax=shape[1] - 1)
+                          dmax=shape[1] - 1, cost="sad")
     assert (plain.disparity == 0).all() and (plain.min_cost == 0).all()

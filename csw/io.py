@@ -137,10 +137,18 @@ def _pfm_bytes(disp):
     return header + np.flipud(disp).tobytes()
 
 
-def disparity_to_float(disp):
-    """int32 disparities with -1 invalid -> float32 with inf invalid."""
-    out = disp.astype(np.float32)
-    out[disp < 0] = np.inf
+def as_float_disparity(disp, dtype=np.float64):
+    """A disparity map in any of csw's conventions (int with -1 invalid, float with
+    NaN/inf or negative invalid) -> float (H, W) with NaN invalid."""
+    out = np.asarray(disp).astype(dtype)
+    out[~np.isfinite(out) | (out < 0)] = np.nan
+    return out
+
+
+def disparity_to_file_float(disp):
+    """float32 (H, W) with inf invalid: what PFM and NPY outputs hold."""
+    out = as_float_disparity(disp, np.float32)
+    out[np.isnan(out)] = np.inf
     return out
 
 
@@ -165,25 +173,26 @@ PNG_MAX_DISPARITY = 65535 / 256  # KITTI: uint16 value = d * 256
 
 
 def write_disparity(path, disp):
-    """Write an int32 (H, W) disparity map (-1 invalid) in the format of path's suffix.
+    """Write a disparity map (H, W), int with -1 invalid or float with NaN/inf invalid,
+    in the format of path's suffix.
 
-    .pfm float32, inf invalid; .png uint16 d*256, 0 invalid; .npy float32, inf invalid.
+    .pfm float32, inf invalid; .png uint16 round(d*256), 0 invalid; .npy float32, inf invalid.
     """
     import imageio.v3 as iio
 
     suffix = Path(path).suffix.lower()
-    disp = np.asarray(disp)
     if suffix == ".pfm":
-        payload = _pfm_bytes(disparity_to_float(disp))
+        payload = _pfm_bytes(disparity_to_file_float(disp))
         atomic_write(path, lambda tmp: Path(tmp).write_bytes(payload))
     elif suffix == ".png":
-        if disp.max(initial=0) > PNG_MAX_DISPARITY:
+        values = as_float_disparity(disp)
+        if np.nanmax(values, initial=0) > PNG_MAX_DISPARITY:
             raise ValueError("disparities above 255 don't fit a 16-bit PNG; write .pfm")
         # KITTI stores 0 for invalid, so d = 0 is indistinguishable from invalid there.
-        png = np.where(disp >= 0, disp.astype(np.int64) * 256, 0).astype(np.uint16)
+        png = np.where(np.isfinite(values), np.round(values * 256), 0).astype(np.uint16)
         atomic_write(path, lambda tmp: iio.imwrite(tmp, png, extension=".png"))
     elif suffix == ".npy":
-        arr = disparity_to_float(disp)
+        arr = disparity_to_file_float(disp)
 
         def save(tmp):
             with open(tmp, "wb") as f:
@@ -202,16 +211,19 @@ def write_float_pfm(path, values):
 
 
 def colorize(disp, dmax):
-    """uint8 (H, W, 3) visualisation of int32 disparities: a blue-to-red ramp, invalid
-    black. Piecewise-linear 'jet' anchors, so no plotting library is needed."""
+    """uint8 (H, W, 3) visualisation of a disparity map (any of csw's conventions): a
+    blue-to-red ramp, invalid black. Piecewise-linear 'jet' anchors, so no plotting
+    library is needed."""
     anchors = np.array([[0, 0, 128], [0, 0, 255], [0, 255, 255], [255, 255, 0],
                         [255, 0, 0], [128, 0, 0]], dtype=np.float64)
-    t = np.clip(disp.astype(np.float64) / max(dmax, 1), 0, 1) * (len(anchors) - 1)
+    disp = as_float_disparity(disp)
+    invalid = np.isnan(disp)
+    t = np.clip(np.nan_to_num(disp) / max(dmax, 1), 0, 1) * (len(anchors) - 1)
     lo = np.floor(t).astype(int)
     hi = np.minimum(lo + 1, len(anchors) - 1)
     frac = (t - lo)[..., None]
     rgb = anchors[lo] * (1 - frac) + anchors[hi] * frac
-    rgb[disp < 0] = 0
+    rgb[invalid] = 0
     return np.round(rgb).astype(np.uint8)
 
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-import kernels
-from csw_cli.synth import render
+from csw import kernels
+from csw.synth import render
 from oracle import oracle_match
 
 ENGINES = sorted(kernels.ENGINES)
@@ -18,7 +18,7 @@ def scene():
 @pytest.mark.parametrize("engine", ENGINES)
 def test_synthetic_disparity_recovered_in_textured_unoccluded_parts(engine, scene):
     left, right, gt, nonocc = scene
-    result = kernels.match(left, right, engine=engine, window=9, dmin=0, dmax=24)
+    result = kernels.match(left, right, engine=engine, window=9, dmin=0, dmax=24, cost="sad")
     # Pixels whose whole 9x9 window is non-occluded, on a fronto-parallel (integer-d)
     # layer of one disparity, and away from the image border.
     integer = np.isclose(gt, np.round(gt))
@@ -57,7 +57,8 @@ def test_small_case_worked_by_hand(engine):
 @pytest.mark.parametrize("engine", ENGINES)
 def test_csw_never_chooses_a_blocked_candidate(engine, scene):
     left, right, _, _ = scene
-    result = kernels.match(left, right, engine=engine, window=5, dmax=24, csw=True, tau=900)
+    result = kernels.match(left, right, engine=engine, window=5, dmin=0, dmax=24, cost="sad",
+                           csw=True, tau=900)
     for y in range(left.shape[0]):
         claimed_by = {}
         for x in range(left.shape[1]):
@@ -72,9 +73,9 @@ def test_csw_never_chooses_a_blocked_candidate(engine, scene):
 @pytest.mark.parametrize("engine", ENGINES)
 def test_negative_tau_is_plain_matching(engine, scene):
     left, right, _, _ = scene
-    plain = kernels.match(left, right, engine=engine, window=7, dmax=20, cost="ssd")
+    plain = kernels.match(left, right, engine=engine, window=7, dmax=20, cost="ssd", dmin=0)
     csw = kernels.match(left, right, engine=engine, window=7, dmax=20, cost="ssd", csw=True,
-                        tau=-0.5)
+                        tau=-0.5, dmin=0)
     np.testing.assert_array_equal(plain.disparity, csw.disparity)
     np.testing.assert_array_equal(plain.min_cost, csw.min_cost)
     assert plain.evaluated == csw.evaluated == plain.candidates
@@ -85,7 +86,7 @@ def test_evaluated_count_equals_oracle_on_scene_rows(engine, scene):
     left, right, _, _ = scene
     rows = np.arange(10, 96, 17)
     got = kernels.match(left, right, engine=engine, window=3, dmax=24, csw=True, tau=200,
-                        rows=rows)
+                        rows=rows, dmin=0, cost="sad")
     disp, mins, evaluated = oracle_match(left, right, 3, 0, 24, "sad", True, 200, rows=rows)
     np.testing.assert_array_equal(got.disparity, disp)
     assert got.evaluated == evaluated
@@ -97,7 +98,7 @@ def test_evaluated_count_equals_oracle_on_scene_rows(engine, scene):
 def test_result_does_not_depend_on_thread_count(engine, rule, scene):
     left, right, _, _ = scene
     runs = [kernels.match(left, right, engine=engine, dmax=24, csw=True, tau=1500, rule=rule,
-                          threads=t) for t in (1, 2)]
+                          threads=t, window=9, dmin=0, cost="sad") for t in (1, 2)]
     np.testing.assert_array_equal(runs[0].disparity, runs[1].disparity)
     np.testing.assert_array_equal(runs[0].min_cost, runs[1].min_cost)
     assert runs[0].evaluated == runs[1].evaluated
@@ -116,21 +117,23 @@ def test_result_does_not_depend_on_thread_count(engine, rule, scene):
 def test_entry_rejects_bad_parameters_with_a_fix(bad, message):
     img = np.zeros((20, 40), np.uint8)
     with pytest.raises(ValueError, match=message):
-        kernels.match(img, img, **dict(dict(window=3, dmax=8), **bad))
+        kernels.match(img, img, **dict(dict(engine="window", window=3, dmin=0, dmax=8, cost="sad"),
+                                        **bad))
 
 
 def test_entry_rejects_bad_images():
     with pytest.raises(ValueError, match="astype"):
         kernels.match(np.zeros((5, 5), np.float32), np.zeros((5, 5), np.float32), window=1,
-                      dmax=1)
+                      dmax=1, engine="window", dmin=0, cost="sad")
     with pytest.raises(ValueError, match="differ in size"):
-        kernels.match(np.zeros((5, 5), np.uint8), np.zeros((5, 6), np.uint8), window=1, dmax=1)
+        kernels.match(np.zeros((5, 5), np.uint8), np.zeros((5, 6), np.uint8), engine="window",
+                      window=1, dmin=0, dmax=1, cost="sad")
     with pytest.raises(ValueError, match="2-D"):
         kernels.match(np.zeros((5, 5, 3), np.uint8), np.zeros((5, 5, 3), np.uint8), window=1,
-                      dmax=1)
+                      dmax=1, engine="window", dmin=0, cost="sad")
 
 
 def test_unknown_engine_is_rejected():
     img = np.zeros((5, 5), np.uint8)
     with pytest.raises(ValueError, match="engine must be one of"):
-        kernels.match(img, img, engine="gpu", window=1, dmax=1)
+        kernels.match(img, img, engine="gpu", window=1, dmax=1, dmin=0, cost="sad")

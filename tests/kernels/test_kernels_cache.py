@@ -5,10 +5,11 @@ import subprocess
 import sys
 
 PROBE = """
-import json, numpy as np, kernels
-from kernels import window
+import json, numpy as np
+from csw import kernels
+from csw.kernels import window
 img = np.zeros((4, 6), np.uint8)
-kernels.match(img, img, window=3, dmax=2, csw=True, tau=0)
+kernels.match(img, img, engine="window", window=3, dmin=0, dmax=2, cost="sad", csw=True, tau=0)
 stats = window._window_driver.stats
 print(json.dumps({"hits": sum(stats.cache_hits.values()),
                   "misses": sum(stats.cache_misses.values())}))

@@ -7,9 +7,9 @@ oracle is too slow for full-size real images, so here the window engine stands i
 import numpy as np
 import pytest
 
-import kernels
-from csw_cli import datasets as D
-from csw_cli.engine import paper_tau
+from csw import datasets as D
+from csw import kernels
+from csw.tau import paper_tau
 
 
 def assert_engines_equal(left, right, **options):

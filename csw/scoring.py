@@ -1,0 +1,97 @@
+"""Scoring disparity maps the Middlebury way.
+
+A pixel is bad-t when its disparity is invalid or differs from the ground truth by more
+than t pixels.  Invalid predictions count as bad, and are also reported on their own.
+MAE and RMS are over the valid predictions of the region.
+"""
+
+import numpy as np
+
+from .io import as_float_disparity
+
+THRESHOLDS = (0.5, 1.0, 2.0, 4.0)
+
+
+def score_region(disp, gt, region, thresholds=THRESHOLDS):
+    """Metrics of a float disparity map (nan invalid) over one bool region mask.
+
+    Returns a dict: pixels, bad (dict threshold -> %), invalid (%), mae, rms, and the
+    counts and sums behind them (bad_count per threshold, invalid_count, err_sum,
+    sq_err_sum) so that scenes can be pooled.
+    """
+    d, g = disp[region], gt[region]
+    n = int(region.sum())
+    if n == 0:
+        return {"pixels": 0, "bad": {t: float("nan") for t in thresholds},
+                "bad_count": {t: 0 for t in thresholds}, "invalid_count": 0, "err_sum": 0.0,
+                "sq_err_sum": 0.0, "invalid": float("nan"), "mae": float("nan"),
+                "rms": float("nan")}
+    valid = np.isfinite(d)
+    err = np.abs(d[valid] - g[valid])
+    bad_count = {t: int((~valid).sum() + (err > t).sum()) for t in thresholds}
+    return {
+        "pixels": n,
+        "bad": {t: 100.0 * count / n for t, count in bad_count.items()},
+        "bad_count": bad_count,
+        "invalid_count": int((~valid).sum()),
+        "err_sum": float(err.sum()),
+        "sq_err_sum": float((err ** 2).sum()),
+        "invalid": 100.0 * (~valid).sum() / n,
+        "mae": float(err.mean()) if err.size else float("nan"),
+        "rms": float(np.sqrt((err ** 2).mean())) if err.size else float("nan"),
+    }
+
+
+def score(disp, gt, regions, thresholds=THRESHOLDS):
+    """Score ``disp`` against ``gt`` (float, nan unknown) over named bool regions.
+
+    Every region is intersected with known ground truth. Returns region -> metrics.
+    """
+    disp = as_float_disparity(disp)
+    gt = np.asarray(gt, dtype=np.float64)
+    if disp.shape != gt.shape:
+        raise ValueError(f"disparity map is {disp.shape[1]}x{disp.shape[0]} but the ground "
+                         f"truth is {gt.shape[1]}x{gt.shape[0]}")
+    known = np.isfinite(gt)
+    return {name: score_region(disp, gt, mask & known, thresholds)
+            for name, mask in regions.items()}
+
+
+def bad1_all(disp, pair):
+    """The paper's error rate: bad-1 (%) over all known ground truth of a loaded Pair."""
+    return score(disp, pair.gt, {"all": pair.masks["all"]}, (1.0,))["all"]["bad"][1.0]
+
+
+def metric_rows(metrics, **extra):
+    """Table rows (one per region) from :func:`score`'s result, with ``extra`` keys."""
+    rows = []
+    for region, m in metrics.items():
+        row = dict(extra, region=region, pixels=m["pixels"], invalid=m["invalid"],
+                   mae=m["mae"], rms=m["rms"], bad={f"{t:g}": v for t, v in m["bad"].items()},
+                   bad_count={f"{t:g}": v for t, v in m["bad_count"].items()},
+                   invalid_count=m["invalid_count"], err_sum=m["err_sum"],
+                   sq_err_sum=m["sq_err_sum"])
+        row.update({f"bad_{t:g}": v for t, v in m["bad"].items()})
+        rows.append(row)
+    return rows
+
+
+def pooled_rows(rows, **extra):
+    """Per region, the metrics of every row's pixels taken together (not a mean of
+    per-scene percentages, which would weigh a small scene like a large one)."""
+    out = []
+    for region in dict.fromkeys(r["region"] for r in rows):
+        group = [r for r in rows if r["region"] == region]
+        n = sum(r["pixels"] for r in group)
+        invalid = sum(r["invalid_count"] for r in group)
+        valid = n - invalid
+        bad = {t: 100.0 * sum(r["bad_count"][t] for r in group) / n if n else float("nan")
+               for t in group[0]["bad_count"]}
+        err, sq = sum(r["err_sum"] for r in group), sum(r["sq_err_sum"] for r in group)
+        row = dict(extra, region=region, pixels=n, bad=bad,
+                   invalid=100.0 * invalid / n if n else float("nan"),
+                   mae=err / valid if valid else float("nan"),
+                   rms=float(np.sqrt(sq / valid)) if valid else float("nan"))
+        row.update({f"bad_{t}": v for t, v in bad.items()})
+        out.append(row)
+    return out

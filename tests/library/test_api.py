@@ -1,0 +1,86 @@
+"""csw.match: the library entry, with the CLI's defaults."""
+
+import numpy as np
+import pytest
+
+import csw
+from csw import kernels
+from csw.defaults import MATCH
+from csw.io import luma
+
+
+def test_defaults_are_the_table(small_scene):
+    left, right, _, _ = small_scene
+    result = csw.match(left, right)
+    for key in ("engine", "cost", "window", "dmin", "dmax", "csw", "csw_rule"):
+        assert result.settings[key] == MATCH[key]
+    raw = kernels.match(left, right, engine="window", window=MATCH["window"],
+                        dmin=MATCH["dmin"], dmax=MATCH["dmax"], cost=MATCH["cost"])
+    np.testing.assert_array_equal(np.nan_to_num(result.disparity, nan=-1), raw.disparity)
+    np.testing.assert_array_equal(result.min_cost, raw.min_cost)
+    assert result.valid.dtype == bool and result.disparity.dtype == np.float32
+
+
+def test_unique_rule_defaults_to_no_tau(small_scene):
+    """The old kernels.match default (tau -1) silently turned CSW off; csw.match resolves
+    the rule's own default instead."""
+    left, right, _, _ = small_scene
+    result = csw.match(left, right, dmax=16, csw=True, csw_rule="unique")
+    assert result.settings["tau"] == float("inf") and result.settings["tau_source"] == "none"
+    assert result.work_saved > 0.2
+    raw = kernels.match(left, right, engine="fast", window=9, dmin=0, dmax=16, cost="sad",
+                        csw=True, tau=float("inf"), rule="unique")
+    np.testing.assert_array_equal(np.nan_to_num(result.disparity, nan=-1), raw.disparity)
+
+
+def test_tau_auto_comes_from_sampled_rows(small_scene):
+    left, right, _, _ = small_scene
+    result = csw.match(left, right, dmax=16, csw=True)
+    rows = csw.tau.sample_rows(left.shape[0])
+    sample = kernels.match(left, right, engine="fast", window=9, dmin=0, dmax=16, cost="sad",
+                           rows=rows)
+    assert result.settings["tau"] == csw.tau.paper_tau(sample.min_cost)
+    assert result.settings["tau_source"] == "auto"
+
+
+def test_colour_and_paths_are_converted_like_the_cli(small_scene, pair_files, tmp_path):
+    left, right, _, _ = small_scene
+    rgb = np.stack([left, np.roll(left, 1, 0), left[::-1]], axis=2)
+    got = csw.match(rgb, np.stack([right] * 3, axis=2), dmax=16)
+    want = csw.match(luma(rgb), right, dmax=16)
+    np.testing.assert_array_equal(got.disparity, want.disparity)
+    from_files = csw.match(*pair_files, dmax=16)
+    np.testing.assert_array_equal(from_files.disparity, csw.match(left, right, dmax=16).disparity)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(tau=100), "only with CSW"),
+    (dict(csw=True, tau=-5), ">= 0"),
+    (dict(csw=True, tau="sometimes"), "not a number"),
+    (dict(engine="gpu"), "engine must be one of"),
+    (dict(window=4), "odd"),
+    (dict(dmax=500), "less than the image width"),
+])
+def test_bad_options_raise_value_error(small_scene, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        csw.match(small_scene[0], small_scene[1], **kwargs)
+
+
+def test_unknown_option_is_a_type_error(small_scene):
+    with pytest.raises(TypeError, match="unknown option"):
+        csw.match(small_scene[0], small_scene[1], rule="unique")
+
+
+@pytest.mark.parametrize("cost, dtype", [("ssd", np.uint8), ("sad", np.uint16),
+                                         ("shd", np.uint16)])
+def test_warm_up_compiles_what_the_match_runs(cost, dtype):
+    """The match itself must not compile: the warm-up uses the same window and dtype (a
+    1x1 warm-up left SSD 9x9 and 16-bit input compiling inside the timed match)."""
+    from csw.kernels import fast
+
+    rng = np.random.default_rng(0)
+    left = rng.integers(0, 200, (40, 60)).astype(dtype)
+    csw.matching.warm_up("fast", cost, 9, dtype)
+    before = len(fast._fast_driver.signatures)
+    csw.match(left, np.roll(left, 2, 1), dmax=8, cost=cost, window=9)
+    assert len(fast._fast_driver.signatures) == before

@@ -1,0 +1,76 @@
+"""csw.match_many: many pairs, progress, a summary, and bad pairs reported, not fatal."""
+
+import json
+
+import numpy as np
+import pytest
+
+import csw
+from csw.io import read_disparity, write_png
+from csw.synth import render
+
+
+@pytest.fixture
+def folders(tmp_path):
+    for name in ("left", "right", "out"):
+        (tmp_path / name).mkdir()
+    scenes = {}
+    for i in range(3):
+        left, right, _, _ = render(64, 40, dmax=12, seed=i)
+        write_png(tmp_path / "left" / f"p{i}.png", left)
+        write_png(tmp_path / "right" / f"p{i}.png", right)
+        scenes[f"p{i}"] = (left, right)
+    return tmp_path, scenes
+
+
+def test_folders_equal_one_by_one_and_bad_pairs_are_reported(folders):
+    root, scenes = folders
+    (root / "left" / "bad.png").write_bytes(b"not a png")
+    (root / "right" / "bad.png").write_bytes(b"not a png")
+    write_png(root / "left" / "lonely.png", np.zeros((40, 64), np.uint8))
+    jobs = csw.jobs_from_folders(root / "left", root / "right")
+    report = csw.match_many(jobs, root / "out", dmax=12, progress=False)
+    assert report["counts"] == {"ok": 3, "skipped": 0, "failed": 2}
+    failed = {e["name"]: e["error"] for e in report["pairs"] if e["status"] == "failed"}
+    assert "not a readable image" in failed["bad"] and "no lonely.png" in failed["lonely"]
+    for name, (left, right) in scenes.items():
+        want = csw.match(left, right, dmax=12).disparity
+        np.testing.assert_array_equal(read_disparity(root / "out" / f"{name}.pfm"), want)
+    assert json.loads((root / "out" / "summary.json").read_text())["counts"]["failed"] == 2
+    assert not (root / "out" / "bad.pfm").exists()
+
+
+def test_rerun_skips_finished_outputs_unless_overwrite(folders):
+    root, _ = folders
+    jobs = csw.jobs_from_folders(root / "left", root / "right")
+    csw.match_many(jobs, root / "out", dmax=12, progress=False)
+    again = csw.match_many(jobs, root / "out", dmax=12, progress=False)
+    assert again["counts"] == {"ok": 0, "skipped": 3, "failed": 0}
+    redo = csw.match_many(jobs, root / "out", dmax=12, progress=False, overwrite=True,
+                          suffix=".npy")
+    assert redo["counts"]["ok"] == 3 and (root / "out" / "p0.npy").is_file()
+
+
+def test_manifest_names_and_relative_paths(folders):
+    root, scenes = folders
+    (root / "pairs.csv").write_text("# left,right,name\nleft/p0.png,right/p0.png,first\n\n"
+                                    "left/p1.png,right/p1.png\n")
+    jobs = csw.jobs_from_manifest(root / "pairs.csv")
+    assert [j.name for j in jobs] == ["first", "p1"]
+    report = csw.match_many(jobs, root / "out", dmax=12, progress=False, suffix=".png")
+    assert report["counts"]["ok"] == 2 and (root / "out" / "first.png").is_file()
+
+
+@pytest.mark.parametrize("text, message", [("a.png\n", "line 1"), ("", "lists no pairs"),
+                                           ("a,b\nc,d,e,f\n", "line 2")])
+def test_bad_manifest(tmp_path, text, message):
+    (tmp_path / "m.csv").write_text(text)
+    with pytest.raises(ValueError, match=message):
+        csw.jobs_from_manifest(tmp_path / "m.csv")
+
+
+def test_two_pairs_writing_one_output_are_refused(folders):
+    root, _ = folders
+    (root / "m.csv").write_text("left/p0.png,right/p0.png,x\nleft/p1.png,right/p1.png,x\n")
+    with pytest.raises(ValueError, match="both write"):
+        csw.match_many(csw.jobs_from_manifest(root / "m.csv"), root / "out", progress=False)
