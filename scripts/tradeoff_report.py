@@ -40,8 +40,8 @@ def table(rows):
     lines = ["| Algorithm | τ | τ value | Work saved (%) | bad-1 (%) | Δ bad-1 | nonocc bad-1 (%) |",
              "|---|---|---|---|---|---|---|"]
     for r in rows:
-        tau = "" if r["tau"] is None else ("none" if r["tau_label"] == "none"
-                                           else f"{r['tau']:.0f}")
+        # No threshold (none) has no value: the cell stays empty, as for plain rows.
+        tau = "" if r["tau"] is None or r["tau_label"] == "none" else f"{r['tau']:.0f}"
         lines.append(f"| {r['algorithm']} | {r['tau_label']} | {tau} | {fmt(r['work_saved'], 1)} "
                      f"| {fmt(r['error_rate'])} | {fmt(r['delta'], 2)} | {fmt(r['nonocc'])} |")
     return "\n".join(lines)
