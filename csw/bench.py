@@ -103,6 +103,7 @@ def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), ta
             "repeat": repeat,
             "paper_error_rate": paper_row[0] if paper_row else None,
             "paper_time_reduced": paper_row[1] if paper_row else None,
+            "verified": pair.verified,
         })
     return rows
 
@@ -139,8 +140,9 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
     if preset == "paper" and window != paper.WINDOW:
         raise ValueError("the paper preset uses the paper's 9x9 window; drop the window")
     compiled = {}
-    rows, registry, folder_rows = [], [], []
+    rows, registry, folder_rows, unverified = [], [], [], False
     for pair in pairs:
+        unverified |= not pair.verified
         preset_range = paper.preset(pair.dataset) if preset == "paper" else None
         top = dmax if dmax is not None else (preset_range[0] if preset_range else pair.dmax)
         for cost in costs or (paper_costs(pair) if preset == "paper" else ["sad"]):
@@ -159,8 +161,12 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
             registry.append(pair.dataset)  # folders may hold many scenes: keep no pixels
     if len({r["dataset"] for r in folder_rows}) > 1:
         rows += total_rows(folder_rows)
-    return rows, caption(registry, preset == "paper", window, threads, repeat,
-                         sum(compiled.values()))
+    text = caption(registry, preset == "paper", window, threads, repeat,
+                   sum(compiled.values()))
+    if unverified:
+        text += ("\nWARNING: dataset files were not checked against their sha256 "
+                 "(--no-verify); these figures may come from modified data.")
+    return rows, text
 
 
 def total_rows(rows):

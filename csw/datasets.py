@@ -203,12 +203,47 @@ def download(relpath, progress=False):
     failed or corrupt download leaves nothing in the cache.  Zip members are extracted
     to a temporary file, hashed, and renamed into place the same way.
     """
-    import pooch
-
     url, digest, member = FILES[relpath]
     url = _url(url)
     target = cache_dir() / relpath
-    target.parent.mkdir(parents=True, exist_ok=True)
+    created = _make_folders(target.parent)
+    try:
+        return _fetch(relpath, url, digest, member, target, progress)
+    except BaseException:
+        for folder in reversed(created):  # a failed download leaves no empty folders
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+        raise
+
+
+def _make_folders(folder):
+    """Create ``folder`` and its missing parents; return those created, outermost first.
+    A cache path that can't be used is a DataError that says which and why."""
+    missing = []
+    probe = folder
+    while not probe.exists() and probe != probe.parent:
+        missing.append(probe)
+        probe = probe.parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DataError(f"the cache folder {folder} can't be created ({exc.strerror or exc}); "
+                        "set CSW_CACHE_DIR to a writable folder, or CSW_DATA_DIR / "
+                        "--data-dir to one that has the data") from None
+    if not os.access(folder, os.W_OK):
+        raise DataError(f"the cache folder {folder} is not writable; set CSW_CACHE_DIR to a "
+                        "writable folder, or CSW_DATA_DIR / --data-dir to one that has the "
+                        "data")
+    return list(reversed(missing))
+
+
+def _fetch(relpath, url, digest, member, target, progress):
+    """Download one file (or zip member) to ``target``, verified; see download()."""
+    import pooch
+
+    archives = _archive_dir() if member is not None else None
     try:
         if member is None:
             pooch.retrieve(url, known_hash=f"sha256:{digest}", fname=target.name,
@@ -216,7 +251,7 @@ def download(relpath, progress=False):
             return target
         # The zip's own hash is not published; the member's is, and is checked below.
         archive = pooch.retrieve(url, known_hash=None, fname=Path(url).name,
-                                 path=cache_dir() / "_archives", progressbar=progress)
+                                 path=archives, progressbar=progress)
     except ValueError as exc:  # pooch's hash mismatch
         raise DataError(f"{relpath}: download from {url} failed its checksum ({exc}); "
                         "nothing was kept") from None
@@ -240,10 +275,66 @@ def download(relpath, progress=False):
     return target
 
 
-def resolve(relpath, explicit_dir=None, allow_download=True):
-    """Path of a registry file: local if present, else downloaded (if allowed)."""
+def _archive_dir():
+    folder = cache_dir() / "_archives"
+    _make_folders(folder)
+    return folder
+
+
+# In the cache: files already checked, by path, size, mtime and ctime (ctime changes with
+# any write, even one that restores the mtime).
+VERIFIED_FILE = "verified.json"
+
+
+def _verified_records():
+    import json
+
+    try:
+        return json.loads((cache_dir() / VERIFIED_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _remember(records):
+    """Save the verification records; best effort (a read-only cache just re-hashes)."""
+    import json
+
+    from .io import atomic_write
+
+    try:
+        _make_folders(cache_dir())
+        text = json.dumps(records, indent=0, sort_keys=True)
+        atomic_write(cache_dir() / VERIFIED_FILE, lambda tmp: Path(tmp).write_text(text))
+    except (OSError, DataError):
+        pass
+
+
+def verify(relpath, path):
+    """Check a local registry file against its sha256, once: the result is remembered by
+    path, size, modification and change times, so later runs cost a stat.  DataError on a mismatch,
+    naming the file and how to fix it."""
+    digest = FILES[relpath][1]
+    stat = path.stat()
+    key = str(path.resolve())
+    stamp = [digest, stat.st_size, stat.st_mtime_ns, stat.st_ctime_ns]
+    records = _verified_records()
+    if records.get(key) == stamp:
+        return
+    if sha256(path) != digest:
+        raise DataError(f"{path} does not match the registry's sha256 ({digest[:16]}...): it "
+                        "is modified or corrupt. Replace it with the original (or delete it "
+                        "to download it again), or pass --no-verify to use it knowingly")
+    records[key] = stamp
+    _remember(records)
+
+
+def resolve(relpath, explicit_dir=None, allow_download=True, check=True):
+    """Path of a registry file: local if present (verified against its sha256 unless
+    ``check`` is False), else downloaded (if allowed), which verifies it."""
     found = local_path(relpath, explicit_dir)
     if found is not None:
+        if check:
+            verify(relpath, found)
         return found
     if not allow_download:
         raise DataError(f"{relpath} is not in the data directory or the cache; set "
@@ -272,6 +363,7 @@ class Pair:
     dmax: int
     dataset: Dataset | None = None
     layout: str = "registry"
+    verified: bool = True  # False: registry files used without their sha256 check
 
 
 def scaled_gt(raw, scale):
@@ -300,8 +392,11 @@ def region_masks(known, border, mask_images):
     return regions
 
 
-def load(name, explicit_dir=None, allow_download=True):
-    """Load a registered pair (or the synthetic scene) as a :class:`Pair`."""
+def load(name, explicit_dir=None, allow_download=True, verify=True):
+    """Load a registered pair (or the synthetic scene) as a :class:`Pair`.
+
+    verify: check every file against the registry's sha256 (remembered once done);
+    False uses modified data knowingly, and the Pair says so (``verified``)."""
     from .io import ImageError, read_image
 
     if name == SYNTHETIC:
@@ -315,16 +410,16 @@ def load(name, explicit_dir=None, allow_download=True):
         raise DataError(f"unknown dataset {name!r}; choose from {', '.join(names())}")
     ds = DATASETS[name]
     try:
-        left, right, raw = (read_image(resolve(f, explicit_dir, allow_download))
+        left, right, raw = (read_image(resolve(f, explicit_dir, allow_download, verify))
                             for f in (ds.left, ds.right, ds.gt))
-        mask_images = {r: read_image(resolve(f, explicit_dir, allow_download))
+        mask_images = {r: read_image(resolve(f, explicit_dir, allow_download, verify))
                        for r, f in ds.masks.items()}
     except ImageError as exc:
         raise DataError(str(exc)) from None
     gt = scaled_gt(raw, ds.gt_scale)
     check_sizes(name, left, right, gt)
     return Pair(name, left, right, gt, region_masks(np.isfinite(gt), ds.border, mask_images),
-                ds.dmax, ds)
+                ds.dmax, ds, verified=verify)
 
 
 def check_sizes(name, left, right, gt):

@@ -140,13 +140,14 @@ def write_scene(directory, width=450, height=375, dmax=64, seed=0):
     the left pixel is visible in the right image, Middlebury's mask convention)."""
     from pathlib import Path
 
-    from .io import write_float_pfm, write_png
+    from .io import atomic_write_all, pfm_writer, png_writer
 
     left, right, gt, nonocc = render(width, height, dmax, seed)
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    write_png(directory / "left.png", left)
-    write_png(directory / "right.png", right)
-    write_float_pfm(directory / "gt.pfm", gt)
-    write_png(directory / "nonocc.png", (nonocc * 255).astype(np.uint8))
+    # All four or none: a scene missing a file would be scored wrongly.
+    atomic_write_all([(directory / "left.png", png_writer(left)),
+                      (directory / "right.png", png_writer(right)),
+                      (directory / "gt.pfm", pfm_writer(gt)),
+                      (directory / "nonocc.png", png_writer((nonocc * 255).astype(np.uint8)))])
     return left, right, gt, nonocc

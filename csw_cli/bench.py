@@ -48,8 +48,9 @@ PAPER_COLUMNS = [
 @opt.format_option
 @opt.data_dir_option
 @opt.download_option
+@opt.verify_option
 def bench(datasets, dataset_dirs, costs, engines, tau, rules, unique_tau, uniqueness, preset,
-          window, dmin, dmax, repeat, threads, paper_figures, fmt, data_dir, download):
+          window, dmin, dmax, repeat, threads, paper_figures, fmt, data_dir, download, verify):
     """Match each dataset plain and with CSW, score both, and time both.
 
     Datasets come from the registry (--dataset) or from benchmark folders as published
@@ -67,8 +68,8 @@ def bench(datasets, dataset_dirs, costs, engines, tau, rules, unique_tau, unique
 
     with opt.library_errors():
         rows, caption = run_bench(
-            opt.pairs(datasets, dataset_dirs, data_dir, download), preset=preset, costs=costs,
-            engines=engines, rules=rules, tau=tau, unique_tau=unique_tau,
+            opt.pairs(datasets, dataset_dirs, data_dir, download, verify), preset=preset,
+            costs=costs, engines=engines, rules=rules, tau=tau, unique_tau=unique_tau,
             uniqueness=uniqueness, window=window, dmin=dmin, dmax=dmax, repeat=repeat,
             threads=threads, progress=progress)
     emit(rows, COLUMNS + (PAPER_COLUMNS if paper_figures else []), fmt, caption)

@@ -35,8 +35,9 @@ COLUMNS = [("low", "From", 0), ("high", "To", 0), ("count", "Pixels", 0),
 @opt.format_option
 @opt.data_dir_option
 @opt.download_option
+@opt.verify_option
 def hist(images, dataset, cost, window, dmin, dmax, csw, tau, plot_path, threads, fmt,
-         data_dir, download):
+         data_dir, download, verify):
     """Histogram of m for a pair (LEFT RIGHT) or a --dataset, with the tau that the
     paper's rule picks: the width of the first of 10 equal bins.
 
@@ -51,7 +52,7 @@ def hist(images, dataset, cost, window, dmin, dmax, csw, tau, plot_path, threads
         raise click.BadParameter("tau applies only with --csw", param_hint="--tau")
     plot_path = check_output(plot_path, (".png",), "--plot")
     if dataset:
-        pair = next(opt.pairs([dataset], [], data_dir, download))
+        pair = next(opt.pairs([dataset], [], data_dir, download, verify))
         left, right, top, title = pair.left, pair.right, pair.dmax, dataset
     else:
         left, right = load_pair(*images)

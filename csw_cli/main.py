@@ -1,5 +1,7 @@
 """The ``csw`` command group: a thin group, one module per command."""
 
+import sys
+
 import click
 
 from . import __version__
@@ -31,3 +33,20 @@ cli.add_command(match)
 cli.add_command(score_cmd, name="score")
 cli.add_command(sweep)
 cli.add_command(synth)
+
+
+def main(args=None):
+    """The ``csw`` entry point: the group, with Ctrl-C reported as an interrupt (exit 130,
+    one line) instead of Click's "Aborted!" and exit 1.  Outputs are written through
+    temporary files, so an interrupted run leaves none behind."""
+    try:
+        code = cli.main(args=args, prog_name="csw", standalone_mode=False)
+    except (KeyboardInterrupt, click.exceptions.Abort):
+        click.echo("csw: interrupted; nothing was written", err=True)
+        sys.exit(130)
+    except click.exceptions.Exit as exc:
+        sys.exit(exc.exit_code)
+    except click.ClickException as exc:
+        exc.show()
+        sys.exit(exc.exit_code)
+    sys.exit(code if isinstance(code, int) else 0)

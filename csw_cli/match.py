@@ -10,11 +10,12 @@ from csw.batch import jobs_from_folders, jobs_from_manifest, match_many
 from csw.io import (
     OUTPUT_SUFFIXES,
     PNG_MAX_DISPARITY,
+    atomic_write_all,
     colorize,
+    disparity_writer,
+    pfm_writer,
+    png_writer,
     read_image,
-    write_disparity,
-    write_float_pfm,
-    write_png,
 )
 from csw.matching import match as match_pair
 from csw.tau import tau_label
@@ -66,13 +67,13 @@ def load_pair(left_path, right_path):
     return images
 
 
-def write_outputs(writers):
-    """Run (description, writer) pairs; each writes atomically. Runtime errors exit 1."""
-    for what, write in writers:
-        try:
-            write()
-        except OSError as exc:
-            raise click.ClickException(f"can't write {what}: {exc.strerror or exc}") from None
+def write_outputs(items):
+    """Write every (path, write_to) together: all of them or none. Write errors exit 1."""
+    try:
+        atomic_write_all(items)
+    except OSError as exc:
+        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+        raise click.ClickException(f"can't write{where}: {exc.strerror or exc}") from None
 
 
 def summary_line(result, shape):
@@ -203,11 +204,11 @@ def match(left, right, output, manifest, output_dir, suffix, overwrite, summary,
         result = match_pair(left_img, right_img, **settings)
 
     disp = result.disparity
-    writers = [(str(output), lambda: write_disparity(output, disp))]
+    writers = [(output, disparity_writer(output, disp))]
     if preview:
-        writers.append((str(preview), lambda: write_png(preview, colorize(disp, dmax))))
+        writers.append((preview, png_writer(colorize(disp, dmax))))
     if cost_map:
         m = np.where(result.min_cost >= 0, result.min_cost, np.inf).astype(np.float32)
-        writers.append((str(cost_map), lambda: write_float_pfm(cost_map, m)))
+        writers.append((cost_map, pfm_writer(m)))
     write_outputs(writers)
     click.echo(summary_line(result, disp.shape), err=True)

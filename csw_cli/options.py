@@ -152,12 +152,16 @@ def _dataset_names():
 
 
 data_dir_option = click.option(
-    "--data-dir", type=click.Path(file_okay=False), envvar="CSW_DATA_DIR",
+    "--data-dir", type=click.Path(file_okay=False, exists=True), envvar="CSW_DATA_DIR",
     help="Folder holding the registered datasets (default: $CSW_DATA_DIR, then the user "
          "cache, then a download from the official Middlebury URLs).")
 download_option = click.option(
     "--download/--no-download", default=True, show_default=True,
     help="Download missing dataset files from the official URLs into the user cache.")
+verify_option = click.option(
+    "--verify/--no-verify", default=True, show_default=True,
+    help="Check registered dataset files against their sha256 before first use (the check "
+         "is remembered). --no-verify uses modified data knowingly; every report says so.")
 dataset_dir_option = click.option(
     "--dataset-dir", "dataset_dirs", multiple=True, type=click.Path(file_okay=False),
     help="A benchmark folder as published: a Middlebury 2014/2021 scene or a folder of "
@@ -173,7 +177,11 @@ def dataset_option(multiple=True, required=True):
                              + ("; repeat for several." if multiple else "."))
 
 
-def pairs(datasets, dataset_dirs, data_dir, download):
+NOT_VERIFIED = ("warning: dataset files were not checked against their sha256 "
+                "(--no-verify); figures from modified data are not the benchmark's")
+
+
+def pairs(datasets, dataset_dirs, data_dir, download, verify=True):
     """Every pair the options name, loaded one at a time: registered datasets first, then
     each scene of each --dataset-dir.  Library errors become Click errors."""
     from csw import datasets as registry
@@ -181,9 +189,11 @@ def pairs(datasets, dataset_dirs, data_dir, download):
 
     if not datasets and not dataset_dirs:
         raise click.UsageError("give --dataset NAME or --dataset-dir PATH")
+    if not verify and datasets:
+        click.echo(NOT_VERIFIED, err=True)
     for name in datasets:
         with library_errors():
-            pair = registry.load(name, data_dir, allow_download=download)
+            pair = registry.load(name, data_dir, allow_download=download, verify=verify)
         yield pair
     for folder in dataset_dirs:
         with library_errors():

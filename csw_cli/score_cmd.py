@@ -74,8 +74,9 @@ def scene_map(folder, scene):
 @opt.format_option
 @opt.data_dir_option
 @opt.download_option
+@opt.verify_option
 def score_cmd(disp, gt, gt_scale, masks, border, dataset, dataset_dir, scene, fmt, data_dir,
-              download):
+              download, verify):
     """Score DISP (PFM, PNG d*256, or NPY) with bad-0.5/1/2/4, invalid, MAE and RMS.
 
     Invalid predictions count as bad. Regions: all known ground truth, plus nonocc and
@@ -106,7 +107,7 @@ def score_cmd(disp, gt, gt_scale, masks, border, dataset, dataset_dir, scene, fm
             pair = layouts.find_scene(dataset_dir, scene).load()
         truth, regions = pair.gt, with_border(pair, border)
     elif dataset:
-        pair = next(opt.pairs([dataset], [], data_dir, download))
+        pair = next(opt.pairs([dataset], [], data_dir, download, verify))
         truth, regions = pair.gt, with_border(pair, border)
     else:
         truth, regions = truth_from_files(gt, gt_scale, masks, border)

@@ -55,8 +55,9 @@ def parse_ints(ctx, param, value):
 @opt.format_option
 @opt.data_dir_option
 @opt.download_option
+@opt.verify_option
 def sweep(datasets, dataset_dirs, cost, rules, taus, uniquenesses, window, dmax, threads,
-          plot_path, fmt, data_dir, download):
+          plot_path, fmt, data_dir, download, verify):
     """Run CSW over a range of tau for each rule and report work saved against bad-1.
 
     Results are the same with either engine; the sweep uses the fast one.
@@ -71,7 +72,7 @@ def sweep(datasets, dataset_dirs, cost, rules, taus, uniquenesses, window, dmax,
     if plot_path and len(datasets) + len(dataset_dirs) != 1:
         raise click.UsageError("--plot draws one dataset; give a single --dataset")
     rows, names = [], []
-    for pair in opt.pairs(datasets, dataset_dirs, data_dir, download):
+    for pair in opt.pairs(datasets, dataset_dirs, data_dir, download, verify):
         top = pair.dmax if dmax is None else dmax
         names.append(pair.name)
         with opt.library_errors():

@@ -21,7 +21,8 @@ def parse_size(ctx, param, value):
               help="WIDTHxHEIGHT.")
 @click.option("--dmax", type=click.IntRange(min=1), default=64, show_default=True,
               help="Largest disparity in the scene.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Scene seed.")
+@click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True,
+              help="Scene seed.")
 def synth(directory, size, dmax, seed):
     """Write left.png, right.png, gt.pfm and nonocc.png into DIRECTORY.
 

@@ -5,6 +5,7 @@ contract"). This module holds the part they share: the public names of the costs
 validation that runs once at the door, and the result type.
 """
 
+import threading
 from dataclasses import dataclass
 
 import numba
@@ -184,3 +185,47 @@ class thread_count:
     def __exit__(self, *exc):
         numba.set_num_threads(self.previous)
         return False
+
+
+# Runs smaller than this (in pixel-disparity-window operations: about 10 ms) are called
+# directly: starting the worker thread would cost a few percent of them, and a Ctrl-C
+# waits no longer than the run itself.
+DIRECT_WORK = 50_000_000
+
+
+def run_stoppable(call, threads, work=None):
+    """Run ``call(stop, n_threads)`` (a parallel driver) in a worker thread while this
+    thread waits, so that Ctrl-C is acted on at once: Python runs signal handlers only in
+    the main thread, between bytecodes, never inside a compiled kernel.  On
+    KeyboardInterrupt, stop[0] is set; the drivers check it before each row and return
+    within a row, and the interrupt is re-raised here.
+
+    stop: uint8 (1,), 0 until the run is to stop.  threads: as for :class:`thread_count`
+    (Numba's thread count is per calling thread, so it is set in the worker).
+    work: the run's size, to call small runs directly (see DIRECT_WORK).
+    """
+    stop = np.zeros(1, np.uint8)
+    if work is not None and work < DIRECT_WORK:
+        with thread_count(threads) as tc:
+            return call(stop, tc.n)
+    box = {}
+
+    def work():
+        try:
+            with thread_count(threads) as tc:
+                box["value"] = call(stop, tc.n)
+        except BaseException as exc:  # handed to the waiting thread
+            box["error"] = exc
+
+    worker = threading.Thread(target=work, name="csw-kernel", daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(0.05)
+    except KeyboardInterrupt:
+        stop[0] = 1
+        worker.join()
+        raise
+    if "error" in box:
+        raise box["error"]
+    return box["value"]

@@ -40,7 +40,7 @@ from .contract import (
     SSD,
     MatchResult,
     candidate_count,
-    thread_count,
+    run_stoppable,
     validate,
 )
 from .window import blocked, is_distinct, pad_edge, popcount16
@@ -214,8 +214,9 @@ def _select_row(col_sums, row_sums, zero_row, never, w, dmin, csw, tau, rule, un
 @njit(**SERIAL)
 def _stripe(left_p, right_rev, y0, y1, w, dmin, cost, csw, tau, rule, uniqueness, slack,
             col_sums, row_sums, zero_row, zero_pixels, never, claims, disp, min_cost,
-            evaluated):
-    """Match image rows y0 <= y < y1 into disp, min_cost and evaluated (per row) there.
+            evaluated, stop):
+    """Match image rows y0 <= y < y1 into disp, min_cost and evaluated (per row) there;
+    return early, before a row, once stop[0] (uint8 (1,)) is set.
 
     left_p: (H + w - 1, Wp) padded left.  right_rev: the padded right, columns reversed.
     col_sums: (Wp, D) and row_sums: (D,) accumulators, zero_row (D,) zeros of their dtype;
@@ -227,6 +228,8 @@ def _stripe(left_p, right_rev, y0, y1, w, dmin, cost, csw, tau, rule, uniqueness
         _shift_columns(left_p[y0 + a], right_rev[y0 + a], zero_pixels, zero_pixels,
                        col_sums, dmin, cost)
     for y in range(y0, y1):
+        if stop[0]:
+            return
         if y > y0:
             # Move down: row y + w - 1 enters the window, row y - 1 leaves (the _sub row).
             _shift_columns(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
@@ -237,11 +240,12 @@ def _stripe(left_p, right_rev, y0, y1, w, dmin, cost, csw, tau, rule, uniqueness
 
 @njit(**PARALLEL)
 def _fast_driver(left_p, right_rev, stripes, w, dmin, dmax, cost, csw, tau, rule, uniqueness,
-                 slack, acc_max, disp, min_cost):
+                 slack, acc_max, disp, min_cost, stop):
     """Run row stripes in parallel; each iteration owns its sums and B-map.
 
     stripes: int64 (n, 2), [start, end) rows of each stripe.  acc_max: (1,) array of the
     accumulator dtype holding its maximum.  disp: int32 (H, W) out.  min_cost: int64 (H, W) out.
+    stop: uint8 (1,), set to stop every stripe before its next row.
     Returns int64 (H,), candidates evaluated per row.
     """
     n = stripes.shape[0]
@@ -257,7 +261,7 @@ def _fast_driver(left_p, right_rev, stripes, w, dmin, dmax, cost, csw, tau, rule
         claims = np.empty(width, np.int64)
         _stripe(left_p, right_rev, stripes[i, 0], stripes[i, 1], w, dmin, cost, csw, tau, rule,
                 uniqueness, slack, col_sums, row_sums, zero_row, zero_pixels, acc_max[0],
-                claims, disp, min_cost, evaluated)
+                claims, disp, min_cost, evaluated, stop)
     return evaluated
 
 
@@ -299,11 +303,14 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     acc_max = np.array([np.iinfo(acc_type).max], acc_type)
     disp = np.empty((height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
-    with thread_count(threads) as tc:
-        stripes = stripe_bounds(height, p.window, tc.n, p.rows)
-        per_row = _fast_driver(left_p, right_rev, stripes, p.window, p.dmin, p.dmax, p.cost,
-                               p.csw, p.tau, p.rule, p.uniqueness, p.slack, acc_max, disp,
-                               min_cost)
+
+    def run(stop, n_threads):
+        stripes = stripe_bounds(height, p.window, n_threads, p.rows)
+        return _fast_driver(left_p, right_rev, stripes, p.window, p.dmin, p.dmax, p.cost,
+                            p.csw, p.tau, p.rule, p.uniqueness, p.slack, acc_max, disp,
+                            min_cost, stop)
+
+    per_row = run_stoppable(run, threads, work=p.rows.size * width * (p.dmax - p.dmin + 1))
     if p.rows.size != height:  # only the sampled rows were computed
         disp, min_cost = disp[p.rows], min_cost[p.rows]
     evaluated = int(per_row[p.rows].sum())

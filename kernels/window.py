@@ -20,7 +20,7 @@ from .contract import (
     SSD,
     MatchResult,
     candidate_count,
-    thread_count,
+    run_stoppable,
     validate,
 )
 
@@ -116,15 +116,18 @@ def _match_row(left_p, right_p, y, w, dmin, dmax, cost, csw, tau, rule, uniquene
 
 @njit(**PARALLEL)
 def _window_driver(left_p, right_p, rows, w, dmin, dmax, cost, csw, tau, rule, uniqueness,
-                   slack, disp, min_cost):
+                   slack, disp, min_cost, stop):
     """Match the given rows in parallel; each iteration owns its B-map and cost scratch.
 
     rows: int64 (n,).  disp: int32 (n, W) out.  min_cost: int64 (n, W) out.
-    Returns int64 (n,), the candidates evaluated per row.
+    stop: uint8 (1,); rows not started once it is set are skipped (an interrupted run's
+    maps are not used).  Returns int64 (n,), the candidates evaluated per row.
     """
     n, width = disp.shape
     evaluated = np.zeros(n, np.int64)
     for i in prange(n):
+        if stop[0]:
+            continue
         claims = np.empty(width, np.int64)
         costs = np.empty(dmax - dmin + 1, np.int64)
         evaluated[i] = _match_row(left_p, right_p, rows[i], w, dmin, dmax, cost, csw, tau,
@@ -159,8 +162,10 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     width = left.shape[1]
     disp = np.empty((p.rows.size, width), np.int32)
     min_cost = np.empty((p.rows.size, width), np.int64)
-    with thread_count(threads):
-        per_row = _window_driver(left_p, right_p, p.rows, p.window, p.dmin, p.dmax, p.cost,
-                                 p.csw, p.tau, p.rule, p.uniqueness, p.slack, disp, min_cost)
+    per_row = run_stoppable(
+        lambda stop, _: _window_driver(left_p, right_p, p.rows, p.window, p.dmin, p.dmax,
+                                       p.cost, p.csw, p.tau, p.rule, p.uniqueness, p.slack,
+                                       disp, min_cost, stop), threads,
+        work=p.rows.size * width * (p.dmax - p.dmin + 1) * p.window ** 2)
     plain = candidate_count(width, p.dmin, p.dmax) * p.rows.size
     return MatchResult(disp, min_cost, int(per_row.sum()), plain)

@@ -163,6 +163,7 @@ def test_score_options_that_conflict_fail_before_any_download(tmp_path, monkeypa
     monkeypatch.setenv("CSW_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setenv("CSW_DATA_MIRROR", "http://127.0.0.1:9/")
     (tmp_path / "d.npy").write_bytes(b"")
+    (tmp_path / "empty").mkdir()
     result = invoke("score", tmp_path / "d.npy", "--dataset", "tsukuba", "--gt-scale", 3,
                     "--data-dir", tmp_path / "empty")
     assert result.exit_code == 2 and "--gt-scale and --mask go with --gt" in result.output

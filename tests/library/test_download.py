@@ -99,4 +99,16 @@ def test_unreachable_server_is_a_clear_error(tmp_path, monkeypatch):
     monkeypatch.setenv("NO_PROXY", "127.0.0.1")
     with pytest.raises(D.DataError, match="can't download"):
         D.download("tsukuba/truedisp.row3.col3.pgm")
-    assert not (tmp_path / "cache" / "tsukuba" / "truedisp.row3.col3.pgm").exists()
+    assert not (tmp_path / "cache" / "tsukuba").exists()  # no empty folder either
+
+
+@pytest.mark.parametrize("kind", ["file", "uncreatable"])
+def test_unusable_cache_folder_is_a_clear_error(tmp_path, monkeypatch, kind):
+    if kind == "file":
+        (tmp_path / "cache").write_text("not a folder")
+        cache = tmp_path / "cache"
+    else:
+        cache = "/proc/csw-cache"  # no one, root included, can create folders there
+    monkeypatch.setenv("CSW_CACHE_DIR", str(cache))
+    with pytest.raises(D.DataError, match="CSW_CACHE_DIR"):
+        D.download("tsukuba/truedisp.row3.col3.pgm")
