@@ -129,20 +129,31 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     check_names(jobs)
     resolved = options(**match_options)  # unknown options fail before any work
     entries = []
-    with tqdm(jobs, desc="csw match", unit="pair", file=sys.stderr,
-              disable=not progress) as bar:
-        for job in bar:
-            output = out_dir / f"{job.name}{suffix}"
-            if output.exists() and not overwrite:
-                entries.append({"name": job.name, "left": str(job.left),
-                                "right": str(job.right), "output": str(output),
-                                "status": "skipped"})
-                continue
-            entries.append(run_job(job, output, **match_options))
+    summary = Path(summary) if summary else out_dir / "summary.json"
+    try:
+        with tqdm(jobs, desc="csw match", unit="pair", file=sys.stderr,
+                  disable=not progress) as bar:
+            for job in bar:
+                output = out_dir / f"{job.name}{suffix}"
+                if output.exists() and not overwrite:
+                    entries.append({"name": job.name, "left": str(job.left),
+                                    "right": str(job.right), "output": str(output),
+                                    "status": "skipped"})
+                    continue
+                entries.append(run_job(job, output, **match_options))
+    except KeyboardInterrupt:
+        # What finished is complete on disk: say so, marked as interrupted, and stop.
+        write_summary(summary, entries, resolved, interrupted=True)
+        raise
+    return write_summary(summary, entries, resolved)
+
+
+def write_summary(path, entries, resolved, interrupted=False):
+    """Write the JSON summary atomically and return it."""
     counts = {status: sum(e["status"] == status for e in entries)
               for status in ("ok", "skipped", "failed")}
-    report = {"counts": counts, "options": resolved, "pairs": entries}
-    summary = Path(summary) if summary else out_dir / "summary.json"
+    report = {"counts": counts, "options": resolved, "pairs": entries,
+              "interrupted": interrupted}
     text = json.dumps(report, indent=2, sort_keys=True, default=str)
-    atomic_write(summary, lambda tmp: Path(tmp).write_text(text + "\n"))
+    atomic_write(path, lambda tmp: Path(tmp).write_text(text + "\n"))
     return report

@@ -42,7 +42,7 @@ def main(args=None):
     try:
         code = cli.main(args=args, prog_name="csw", standalone_mode=False)
     except (KeyboardInterrupt, click.exceptions.Abort):
-        click.echo("csw: interrupted; nothing was written", err=True)
+        click.echo("csw: interrupted; no partial file was left", err=True)
         sys.exit(130)
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)

@@ -64,7 +64,7 @@ def test_ctrl_c_stops_a_long_match_at_once(tmp_path):
     waited = time.perf_counter() - sent
     assert process.returncode == 130, stderr
     assert waited < 3.0, f"took {waited:.1f} s to stop"
-    assert stderr.strip().splitlines() == ["csw: interrupted; nothing was written"]
+    assert stderr.strip().splitlines() == ["csw: interrupted; no partial file was left"]
     assert files_in(tmp_path) == before  # no map, no preview, no temporary file
 
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import csw
+import csw.batch
 from csw.io import read_disparity, write_png
 from csw.synth import render
 
@@ -74,3 +75,23 @@ def test_two_pairs_writing_one_output_are_refused(folders):
     (root / "m.csv").write_text("left/p0.png,right/p0.png,x\nleft/p1.png,right/p1.png,x\n")
     with pytest.raises(ValueError, match="both write"):
         csw.match_many(csw.jobs_from_manifest(root / "m.csv"), root / "out", progress=False)
+
+
+def test_an_interrupted_batch_says_what_finished(folders, monkeypatch):
+    root, _ = folders
+    calls = []
+    real = csw.batch.run_job
+
+    def run_then_stop(job, output, **options):
+        calls.append(job.name)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(job, output, **options)
+
+    monkeypatch.setattr(csw.batch, "run_job", run_then_stop)
+    jobs = csw.jobs_from_folders(root / "left", root / "right")
+    with pytest.raises(KeyboardInterrupt):
+        csw.match_many(jobs, root / "out", dmax=12, progress=False)
+    summary = json.loads((root / "out" / "summary.json").read_text())
+    assert summary["interrupted"] and summary["counts"]["ok"] == 1
+    assert sorted(p.name for p in (root / "out").iterdir()) == ["p0.pfm", "summary.json"]
