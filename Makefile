@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test bench bench-peers tradeoff lint format clean
+.PHONY: run test bench bench-peers tradeoff quality lint format clean
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -39,6 +39,9 @@ bench-peers: $(VENV)/.installed-dev
 
 tradeoff: $(VENV)/.installed-dev
 	scripts/tradeoff.sh
+
+quality: $(VENV)/.installed-dev
+	scripts/quality.sh
 
 lint: $(VENV)/.installed-dev
 	scripts/lint.sh

@@ -11,34 +11,37 @@ import time
 import numpy as np
 
 from . import kernels, paper
-from .defaults import BENCH_REPEAT, BENCH_THREADS
-from .scoring import THRESHOLDS, score
+from .defaults import BENCH_REPEAT, BENCH_THREADS, PRESETS
+from .pipeline import OFF
+from .pipeline import run as run_pipeline
+from .scoring import THRESHOLDS, filled_bad, score
 from .tau import resolve_tau
 
 RULE_LABELS = {None: "", "literal": " + CSW", "unique": " + CSW-unique"}
 
 
-def time_variants(left, right, settings, variants, repeat, progress):
-    """Median seconds of each variant (a dict of kernel options), interleaved so that
-    drifts in machine load hit all alike."""
+def time_variants(left, right, settings, variants, repeat, progress, stages=OFF):
+    """Median seconds of each variant (a dict of kernel options) through the pipeline's
+    stages, interleaved so that drifts in machine load hit all alike."""
     times = [[] for _ in variants]
     for i in range(repeat):
         progress(f"repeat {i + 1}/{repeat}")
         for options, samples in zip(variants, times, strict=True):
             start = time.perf_counter()
-            kernels.match(left, right, **options, **settings)
+            run_pipeline(left, right, dict(options, **settings), stages)
             samples.append(time.perf_counter() - start)
     return [statistics.median(samples) for samples in times]
 
 
 def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), tau=None,
                unique_tau=None, uniqueness=None, repeat=BENCH_REPEAT, threads=BENCH_THREADS,
-               progress=None):
+               progress=None, stages=OFF):
     """TABLE II rows for one pair, cost and engine: plain, then CSW with each rule.
 
     pair: a :class:`csw.datasets.Pair`.  tau: the literal rule's tau (number, "auto",
     "none", "paper" or None for the rule's default); unique_tau likewise for the unique
-    rule.  Returns a list of dicts, the plain row first.
+    rule.  stages: the pipeline's stages around every variant (csw.pipeline; off: the
+    paper's raw maps).  Returns a list of dicts, the plain row first.
     """
     settings = dict(engine=engine, window=window, dmin=dmin, dmax=dmax, cost=cost,
                     threads=threads)
@@ -50,7 +53,8 @@ def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), ta
         progress(f"{pair.name} {cost.upper()} {engine} engine {step}")
 
     # Warm-up runs: their outputs are what gets scored (timing does not change them).
-    plain = kernels.match(pair.left, pair.right, csw=False, tau=-1, **settings)
+    plain_map, _, plain = run_pipeline(pair.left, pair.right,
+                                       dict(settings, csw=False, tau=-1), stages)
     variants = [dict(csw=False, tau=-1)]
     taus = [(None, None)]
     for rule in rules:
@@ -58,17 +62,18 @@ def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), ta
         taus.append(resolve_tau(given, rule, plain_min_cost=lambda: plain.min_cost,
                                 paper_value=paper_taus.get(cost)))
         variants.append(dict(csw=True, tau=taus[-1][0], rule=rule, uniqueness=uniqueness))
-    results = [plain] + [kernels.match(pair.left, pair.right, **v, **settings)
-                         for v in variants[1:]]
-    seconds = time_variants(pair.left, pair.right, settings, variants, repeat, report)
+    runs = [(plain_map, plain)] + [run_pipeline(pair.left, pair.right, dict(v, **settings),
+                                                stages)[::2] for v in variants[1:]]
+    seconds = time_variants(pair.left, pair.right, settings, variants, repeat, report, stages)
 
     height, width = pair.left.shape
     rows = []
-    for result, variant, (tau_value, tau_source), secs in zip(results, variants, taus,
-                                                              seconds, strict=True):
+    staged = sorted(k for k in OFF if stages[k] != OFF[k])
+    for (disp, result), variant, (tau_value, tau_source), secs in zip(runs, variants, taus,
+                                                                      seconds, strict=True):
         is_csw = variant["csw"]
         rule = variant.get("rule")
-        metrics = score(result.disparity, pair.gt, pair.masks)
+        metrics = score(disp, pair.gt, pair.masks)
         paper_row = paper.TABLE2.get((ds.paper if ds else None, cost, is_csw)) \
             if rule in (None, "literal") else None
         rows.append({
@@ -86,8 +91,12 @@ def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), ta
             "window": window,
             "dmin": dmin,
             "dmax": dmax,
+            "stages": {k: stages[k] for k in staged},
             "error_rate": metrics["all"]["bad"][1.0],
             "bad": {f"{t:g}": metrics["all"]["bad"][t] for t in THRESHOLDS},
+            "density": metrics["all"]["density"],
+            "bad2_valid": metrics["all"]["bad_valid"][2.0],
+            "filled_bad2": filled_bad(disp, pair.gt, pair.masks["all"]),
             "invalid": metrics["all"]["invalid"],
             "regions": {name: {"bad1": m["bad"][1.0], "pixels": m["pixels"],
                                "bad1_count": m["bad_count"][1.0]}
@@ -122,18 +131,27 @@ def paper_costs(pair):
 
 def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=None,
               unique_tau=None, uniqueness=None, window=paper.WINDOW, dmin=0, dmax=None,
-              repeat=BENCH_REPEAT, threads=BENCH_THREADS, progress=None):
+              repeat=BENCH_REPEAT, threads=BENCH_THREADS, progress=None, stages=None):
     """What ``csw bench`` prints: bench rows for every pair, then, when pairs from folders
     (not the registry) number more than one, their totals.
 
     pairs: an iterable of :class:`csw.datasets.Pair`, consumed one at a time.
-    preset: None or "paper".  costs, engines, rules: lists, or None for the preset's.
-    dmax: None for each pair's own range (or the paper's with the paper preset).
-    Returns (rows, caption).
+    preset: None or "paper" (the paper's method and settings), or one of
+    csw.defaults.PRESETS for its stages and cost.  costs, engines, rules: lists, or None
+    for the preset's.  stages: pipeline stage options over the preset's (see
+    csw.pipeline).  dmax: None for each pair's own range (or the paper's with the paper
+    preset).  Returns (rows, caption).
     """
     from .matching import warm_up
 
     chosen = PAPER_PRESET if preset == "paper" else PLAIN_PRESET
+    named = PRESETS.get(preset or "raw", PRESETS["raw"])
+    stage_values = {k: named[k] for k in OFF}
+    if preset == "paper" and stages and any(v != OFF[k] for k, v in stages.items()):
+        raise ValueError("the paper preset is the paper's raw method; drop the stages")
+    stage_values.update(stages or {})
+    if costs is None and preset not in (None, "paper", "raw"):
+        costs = [named["cost"]]
     engines = engines or chosen["engines"]
     rules = rules or chosen["rules"]
     tau = chosen["tau"] if tau is None else tau
@@ -149,11 +167,12 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
             for engine in engines:
                 key = (engine, cost, pair.left.dtype.str)
                 if key not in compiled:
-                    compiled[key] = warm_up(engine, cost, window, pair.left.dtype)
+                    compiled[key] = warm_up(engine, cost, window, pair.left.dtype,
+                                            stage_values)
                 new = bench_rows(pair, cost=cost, window=window, dmin=dmin, dmax=top,
                                  engine=engine, rules=rules, tau=tau, unique_tau=unique_tau,
                                  uniqueness=uniqueness, repeat=repeat, threads=threads,
-                                 progress=progress)
+                                 progress=progress, stages=stage_values)
                 rows += new
                 if pair.dataset is None:
                     folder_rows += new
@@ -163,6 +182,10 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
         rows += total_rows(folder_rows)
     text = caption(registry, preset == "paper", window, threads, repeat,
                    sum(compiled.values()))
+    staged = {k: v for k, v in stage_values.items() if v != OFF[k]}
+    if staged:
+        text += ("\nPipeline stages around every row: "
+                 + ", ".join(f"{k} {v}" for k, v in staged.items()) + ".")
     if unverified:
         text += ("\nWARNING: dataset files were not checked against their sha256 "
                  "(--no-verify); these figures may come from modified data.")

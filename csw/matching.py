@@ -11,8 +11,10 @@ from pathlib import Path
 import numpy as np
 
 from . import kernels
-from .defaults import MATCH
+from .defaults import MATCH, PRESETS
 from .io import read_image, to_gray
+from .pipeline import OFF
+from .pipeline import run as run_pipeline
 from .tau import resolve_tau, sample_rows
 
 
@@ -20,8 +22,11 @@ from .tau import resolve_tau, sample_rows
 class Result:
     """What :func:`match` returns.
 
-    disparity: float32 (H, W), the chosen disparity, NaN where invalid (no candidate).
-    min_cost:  int64 (H, W), the minimum cost m at the chosen d, -1 where invalid.
+    disparity: float32 (H, W), the disparity (subpixel where asked), NaN where invalid (no
+        candidate, or refused by a validity stage or filter).
+    confidence: float32 (H, W), 0..1: (second - best) / second of the costs, 0 where
+        invalid (all 0 unless the second-best costs were computed: see ``match``).
+    min_cost:  int64 (H, W), the minimum cost m at the chosen d, -1 where no candidate.
     evaluated: candidates (pixel, d) whose cost was evaluated.
     candidates: candidates plain matching evaluates, so ``work_saved`` is CSW's share.
     settings: every option as used, with ``tau`` resolved to a number (-1 when CSW is
@@ -30,6 +35,7 @@ class Result:
     """
 
     disparity: np.ndarray
+    confidence: np.ndarray
     min_cost: np.ndarray
     evaluated: int
     candidates: int
@@ -54,12 +60,26 @@ class Result:
 
 
 def options(**given):
-    """The full option set: ``given`` over the defaults; TypeError on an unknown name."""
+    """The full option set: ``given`` over the preset over the defaults.  TypeError on an
+    unknown name; ValueError for a stage added to the paper preset."""
     unknown = set(given) - set(MATCH)
     if unknown:
         raise TypeError(f"unknown option(s) {', '.join(sorted(unknown))}; "
                         f"csw.match takes {', '.join(MATCH)}")
-    return {**MATCH, **given}
+    preset = given.get("preset", MATCH["preset"])
+    if preset not in PRESETS:
+        raise ValueError(f"preset must be one of {', '.join(PRESETS)}, got {preset!r}")
+    if preset == "paper":
+        added = [k for k in OFF if k in given and given[k] != OFF[k]]
+        if added:
+            raise ValueError(f"the paper preset is the paper's raw method; drop "
+                             f"{', '.join(added)} (or use another preset)")
+    return {**MATCH, **PRESETS[preset], **given}
+
+
+def stages(opts):
+    """The pipeline's stage options out of a full option set."""
+    return {k: opts[k] for k in OFF}
 
 
 def as_gray(image, name):
@@ -73,24 +93,26 @@ def as_gray(image, name):
     return to_gray(image, name)
 
 
-def _kernel_args(opts):
+def kernel_args(opts):
     """The kernels' keyword arguments for a resolved option set."""
     return dict(engine=opts["engine"], window=opts["window"], dmin=opts["dmin"],
                 dmax=opts["dmax"], cost=opts["cost"], rule=opts["csw_rule"],
                 uniqueness=opts["uniqueness"], threads=opts["threads"])
 
 
-def warm_up(engine, cost, window, dtype=np.uint8):
+def warm_up(engine, cost, window, dtype=np.uint8, stages=None):
     """Compile (or load from the cache) the kernels that a match with these settings runs,
     on a tiny pair of the same dtype and window (the fast engine's accumulator type
-    depends on both); return the seconds taken."""
-    tiny = np.zeros((window, window + 1), dtype)
+    depends on both, and the census codes' type on the census window); return the
+    seconds taken."""
+    stages = dict(OFF, **(stages or {}))
+    side = max(window, 8)
+    tiny = np.zeros((side, side + 1), dtype)
+    args = dict(engine=engine, window=window, dmin=0, dmax=1, cost=cost)
     start = time.perf_counter()
     for csw in (False, True):
-        kernels.match(tiny, tiny, engine=engine, window=window, dmin=0, dmax=1, cost=cost,
-                      csw=csw, tau=0)
-    kernels.match(tiny, tiny, engine=engine, window=window, dmin=0, dmax=1, cost=cost,
-                  rows=np.array([0]))  # the sampled rows of tau auto
+        run_pipeline(tiny, tiny, dict(args, csw=csw, tau=0), stages, confidence=True)
+    run_pipeline(tiny, tiny, dict(args, rows=np.array([0])), OFF)  # tau auto's sample
     return time.perf_counter() - start
 
 
@@ -100,7 +122,7 @@ def check_tau_use(csw, tau):
         raise ValueError("tau applies only with CSW on; add csw=True (--csw) or drop tau")
 
 
-def match(left, right, **given):
+def match(left, right, want_confidence=False, **given):
     """Match a rectified pair; left is the reference.
 
     Parameters
@@ -125,6 +147,14 @@ def match(left, right, **given):
         The unique rule's margin in percent (default 12; 25 for SSD).
     threads : int, optional
         Threads (default: all cores).
+    preset : {"raw", "paper", "accurate"}
+        A named set of the options below and the cost (see :data:`csw.defaults.PRESETS`);
+        options given explicitly override it.  "paper" takes no stage.
+    prefilter, prefilter_cap, census_window, lr_check, uniqueness_ratio,
+    texture_threshold, subpixel, speckle_size, speckle_range, median, fill
+        The pipeline's stages (see :mod:`csw.pipeline`).
+    want_confidence : bool
+        Compute the confidence map even when no stage needs the second-best costs.
 
     Defaults are those of :data:`csw.defaults.MATCH`.
 
@@ -140,30 +170,32 @@ def match(left, right, **given):
     opts = options(**given)
     check_tau_use(opts["csw"], opts["tau"])
     left, right = as_gray(left, "left"), as_gray(right, "right")
-    args = _kernel_args(opts)
+    args = kernel_args(opts)
     if opts["engine"] not in kernels.ENGINES:
         raise ValueError(f"engine must be one of {', '.join(kernels.ENGINES)}, "
                          f"got {opts['engine']!r}")
     # Every check of the kernels' entry, once, before the warm-up compiles for these types.
-    _, _, params = kernels.contract.validate(
+    _, _, setup, _ = kernels.contract.validate(
         left, right, window=opts["window"], dmin=opts["dmin"], dmax=opts["dmax"],
         cost=opts["cost"], csw=False, tau=-1, rule=opts["csw_rule"],
-        uniqueness=opts["uniqueness"])
-    compile_s = warm_up(opts["engine"], opts["cost"], params.window, left.dtype)
+        uniqueness=opts["uniqueness"], census_window=opts["census_window"])
+    compile_s = warm_up(opts["engine"], opts["cost"], setup.window, left.dtype, stages(opts))
     tau, source = -1.0, "off"
     if opts["csw"]:
         def sampled_min_cost():
             rows = sample_rows(left.shape[0])
-            return kernels.match(left, right, rows=rows, **args).min_cost
+            # Only the stages that shape the costs: filters don't change min_cost.
+            shaping = {k: opts[k] for k in ("prefilter", "prefilter_cap", "census_window")}
+            return run_pipeline(left, right, dict(args, rows=rows), dict(OFF, **shaping))[2]\
+                .min_cost
 
         tau, source = resolve_tau(opts["tau"], opts["csw_rule"], plain_min_cost=sampled_min_cost)
     start = time.perf_counter()
-    raw = kernels.match(left, right, csw=opts["csw"], tau=tau, **args)
+    disparity, confidence, raw = run_pipeline(left, right, dict(args, csw=opts["csw"], tau=tau),
+                                              stages(opts), confidence=want_confidence)
     seconds = time.perf_counter() - start
-    disparity = raw.disparity.astype(np.float32)
-    disparity[raw.disparity < 0] = np.nan
     settings = dict(opts, tau=tau, tau_source=source,
                     uniqueness=kernels.contract.resolve_uniqueness(opts["cost"],
                                                                    opts["uniqueness"]))
-    return Result(disparity, raw.min_cost, raw.evaluated, raw.candidates, settings, seconds,
-                  compile_s)
+    return Result(disparity, confidence, raw.min_cost, raw.evaluated, raw.candidates,
+                  settings, seconds, compile_s)

@@ -15,22 +15,30 @@ THRESHOLDS = (0.5, 1.0, 2.0, 4.0)
 def score_region(disp, gt, region, thresholds=THRESHOLDS):
     """Metrics of a float disparity map (nan invalid) over one bool region mask.
 
-    Returns a dict: pixels, bad (dict threshold -> %), invalid (%), mae, rms, and the
+    Returns a dict: pixels, density (% valid), bad (dict threshold -> %, invalid pixels
+    counting as bad), bad_valid (threshold -> % of the valid pixels), invalid (%), mae,
+    rms, and the
     counts and sums behind them (bad_count per threshold, invalid_count, err_sum,
     sq_err_sum) so that scenes can be pooled.
     """
     d, g = disp[region], gt[region]
     n = int(region.sum())
     if n == 0:
-        return {"pixels": 0, "bad": {t: float("nan") for t in thresholds},
+        return {"pixels": 0, "density": float("nan"),
+                "bad_valid": {t: float("nan") for t in thresholds},
+                "bad": {t: float("nan") for t in thresholds},
                 "bad_count": {t: 0 for t in thresholds}, "invalid_count": 0, "err_sum": 0.0,
                 "sq_err_sum": 0.0, "invalid": float("nan"), "mae": float("nan"),
                 "rms": float("nan")}
     valid = np.isfinite(d)
     err = np.abs(d[valid] - g[valid])
     bad_count = {t: int((~valid).sum() + (err > t).sum()) for t in thresholds}
+    n_valid = int(valid.sum())
     return {
         "pixels": n,
+        "density": 100.0 * n_valid / n,
+        "bad_valid": {t: 100.0 * (err > t).sum() / n_valid if n_valid else float("nan")
+                      for t in thresholds},
         "bad": {t: 100.0 * count / n for t, count in bad_count.items()},
         "bad_count": bad_count,
         "invalid_count": int((~valid).sum()),
@@ -55,6 +63,16 @@ def score(disp, gt, regions, thresholds=THRESHOLDS):
     known = np.isfinite(gt)
     return {name: score_region(disp, gt, mask & known, thresholds)
             for name, mask in regions.items()}
+
+
+def filled_bad(disp, gt, region, threshold=2.0):
+    """bad-t (%) over ``region`` after the evaluation kits' background fill (csw.pipeline's
+    fill="background"), the same fill for every method: invalid pixels take the smaller
+    nearest valid disparity on their row."""
+    from .kernels.filters import fill_background
+
+    filled = fill_background(as_float_disparity(disp, np.float32))
+    return score(filled, gt, {"r": region}, (threshold,))["r"]["bad"][threshold]
 
 
 def bad1_all(disp, pair):

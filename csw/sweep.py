@@ -1,7 +1,8 @@
 """CSW's trade-off between work saved and accuracy, over tau, rules and uniqueness."""
 
-from . import kernels
 from .bench import RULE_LABELS
+from .pipeline import OFF
+from .pipeline import run as run_pipeline
 from .scoring import bad1_all, score
 from .tau import paper_tau, sweep_value
 
@@ -9,21 +10,23 @@ DEFAULT_TAUS = "0.25x,0.5x,1x,1.5x,2x,3x,5x,none"
 
 
 def sweep_rows(pair, *, cost, rules, taus, uniquenesses=(None,), window, dmax, threads=None,
-               progress=None):
+               progress=None, stages=OFF):
     """Plain matching, then every (rule, uniqueness, tau) with CSW, as dicts.
 
-    taus: (label, kind, number) items from :func:`csw.tau.parse_sweep`.
+    taus: (label, kind, number) items from :func:`csw.tau.parse_sweep`.  stages: the
+    pipeline's stages around every run (off: the raw maps).
     Results are the same with either engine; the sweep uses the fast one.
     """
     progress = progress or (lambda step: None)
     settings = dict(engine="fast", window=window, dmin=0, dmax=dmax, cost=cost,
                     threads=threads)
-    plain = kernels.match(pair.left, pair.right, csw=False, tau=-1, **settings)
-    plain_bad1 = bad1_all(plain.disparity, pair)
+    plain_map, _, plain = run_pipeline(pair.left, pair.right, dict(settings, csw=False, tau=-1),
+                                       stages)
+    plain_bad1 = bad1_all(plain_map, pair)
     auto = paper_tau(plain.min_cost)
 
-    def row(result, rule, uniqueness, label, tau):
-        metrics = score(result.disparity, pair.gt, pair.masks, (1.0,))
+    def row(disp, result, rule, uniqueness, label, tau):
+        metrics = score(disp, pair.gt, pair.masks, (1.0,))
         name = RULE_LABELS[rule]
         if rule == "unique" and uniqueness is not None:
             name += f" U={uniqueness}"
@@ -35,13 +38,14 @@ def sweep_rows(pair, *, cost, rules, taus, uniquenesses=(None,), window, dmax, t
                 "delta": metrics["all"]["bad"][1.0] - plain_bad1 if rule else None,
                 "nonocc": metrics.get("nonocc", {}).get("bad", {}).get(1.0)}
 
-    rows = [row(plain, None, None, "", None)]
+    rows = [row(plain_map, plain, None, None, "", None)]
     for rule in rules:
         for uniqueness in (uniquenesses if rule == "unique" else [None]):
             for label, kind, number in taus:
                 tau = sweep_value(kind, number, auto)
                 progress(f"{pair.name} {cost.upper()} {rule} tau {label}")
-                result = kernels.match(pair.left, pair.right, csw=True, tau=tau, rule=rule,
-                                       uniqueness=uniqueness, **settings)
-                rows.append(row(result, rule, uniqueness, label, tau))
+                disp, _, result = run_pipeline(
+                    pair.left, pair.right,
+                    dict(settings, csw=True, tau=tau, rule=rule, uniqueness=uniqueness), stages)
+                rows.append(row(disp, result, rule, uniqueness, label, tau))
     return rows

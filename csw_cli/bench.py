@@ -13,6 +13,9 @@ COLUMNS = [
     ("engine", "Engine", 0),
     ("tau", "τ", 0),
     ("error_rate", "Error rate (%)", 2),
+    ("density", "Density (%)", 1),
+    ("bad2_valid", "bad-2 valid (%)", 2),
+    ("filled_bad2", "bad-2 filled (%)", 2),
     ("time_s", "Time (s)", 4),
     ("time_reduced", "Time reduced (%)", 2),
     ("work_saved", "Work saved (%)", 2),
@@ -21,6 +24,13 @@ PAPER_COLUMNS = [
     ("paper_error_rate", "Paper error (%)", 2),
     ("paper_time_reduced", "Paper time reduced (%)", 2),
 ]
+def bench_stage_options(command):
+    """The pipeline's stage options, less --preset (bench has its own)."""
+    for option in reversed(opt.STAGE_OPTIONS[1:]):
+        command = option(command)
+    return command
+
+
 @click.command(short_help="Score and time plain vs CSW matching (the paper's TABLE II).")
 @opt.dataset_option(required=False)
 @opt.dataset_dir_option
@@ -34,9 +44,10 @@ PAPER_COLUMNS = [
 @click.option("--unique-tau", type=opt.TauType(), default=None,
               help="tau for the unique rule's rows [default: none, no cost threshold].")
 @opt.uniqueness_option
-@click.option("--preset", type=click.Choice(["paper"]), default=None,
-              help="The paper's method and settings: window engine, literal rule, 9x9, its "
-                   "costs, disparity ranges and taus.")
+@click.option("--preset", type=click.Choice(["paper", "raw", "accurate"]), default=None,
+              help="paper: the paper's method and settings (window engine, literal rule, "
+                   "9x9, its costs, disparity ranges and taus); raw or accurate: that "
+                   "pipeline (see csw match) around every row [default: raw].")
 @opt.window_option()
 @opt.dmin_option
 @opt.dataset_dmax_option
@@ -49,13 +60,18 @@ PAPER_COLUMNS = [
 @opt.data_dir_option
 @opt.download_option
 @opt.verify_option
-def bench(datasets, dataset_dirs, costs, engines, tau, rules, unique_tau, uniqueness, preset,
-          window, dmin, dmax, repeat, threads, paper_figures, fmt, data_dir, download, verify):
+@bench_stage_options
+@click.pass_context
+def bench(ctx, datasets, dataset_dirs, costs, engines, tau, rules, unique_tau, uniqueness, preset,
+          window, dmin, dmax, repeat, threads, paper_figures, fmt, data_dir, download, verify,
+          **stage_values):
     """Match each dataset plain and with CSW, score both, and time both.
 
     Datasets come from the registry (--dataset) or from benchmark folders as published
     (--dataset-dir: Middlebury 2014/2021 scenes, KITTI 2012/2015 training folders); a
-    folder's rows end with a total over its scenes.
+    folder's rows end with a total over its scenes.  Density is the share of known pixels
+    with a disparity; bad-2 valid is over those; bad-2 filled after the evaluation kits'
+    background fill.
 
     \b
     Examples:
@@ -71,5 +87,6 @@ def bench(datasets, dataset_dirs, costs, engines, tau, rules, unique_tau, unique
             opt.pairs(datasets, dataset_dirs, data_dir, download, verify), preset=preset,
             costs=costs, engines=engines, rules=rules, tau=tau, unique_tau=unique_tau,
             uniqueness=uniqueness, window=window, dmin=dmin, dmax=dmax, repeat=repeat,
-            threads=threads, progress=progress)
+            threads=threads, progress=progress,
+            stages=opt.given(ctx, [n for n in opt.STAGE_NAMES if n != "preset"]))
     emit(rows, COLUMNS + (PAPER_COLUMNS if paper_figures else []), fmt, caption)

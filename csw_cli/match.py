@@ -84,7 +84,8 @@ def summary_line(result, shape):
     mode = (f"CSW {s['csw_rule']} tau={tau_label(s['tau'])}{tau_note}" if s["csw"]
             else "plain")
     return (f"{width}x{height} d {s['dmin']}..{s['dmax']} {s['cost'].upper()} "
-            f"{s['window']}x{s['window']} {mode} ({s['engine']} engine): "
+            f"{s['window']}x{s['window']} {mode}, preset {s['preset']} "
+            f"({s['engine']} engine): "
             f"{result.seconds:.3f} s (compile {result.compile_seconds:.2f} s), evaluated "
             f"{100.0 * result.evaluated / max(result.candidates, 1):.1f}% of candidates, "
             f"invalid {100.0 * result.invalid_share:.1f}%")
@@ -135,9 +136,9 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
 @click.option("--summary", type=click.Path(dir_okay=False),
               help="Many pairs: where to write the JSON summary [default: "
                    "OUTPUT_DIR/summary.json].")
-@opt.engine_option()
-@opt.cost_option()
-@opt.window_option()
+@opt.engine_option(default=None)
+@opt.cost_option(default=None)
+@opt.window_option(default=None)
 @opt.dmin_option
 @opt.dmax_option
 @opt.csw_option
@@ -149,13 +150,23 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
               help="Also write an 8-bit colour PNG of the map (invalid black).")
 @click.option("--cost-map", type=click.Path(dir_okay=False),
               help="Also write the minimum-cost map m as PFM (inf where invalid).")
-def match(left, right, output, manifest, output_dir, suffix, overwrite, summary, engine, cost,
-          window, dmin, dmax, csw, rule, tau, uniqueness, threads, preview, cost_map):
+@click.option("--confidence", "confidence_map", type=click.Path(dir_okay=False),
+              help="Also write the confidence (0..1: how much the best cost beats the "
+                   "second best) as PFM.")
+@opt.stage_options
+@click.pass_context
+def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, summary, engine,
+          cost, window, dmin, dmax, csw, rule, tau, uniqueness, threads, preview, cost_map,
+          confidence_map, **stage_values):
     """Match LEFT against RIGHT (left is the reference) and write the disparity map.
 
     The match of left pixel x is right pixel x - d, for d in [DMIN, DMAX].  With --csw,
     each row keeps a map of right pixels already claimed by a match whose cost is at most
     TAU, and later searches on the row skip them.
+
+    The default preset, accurate, matches census codes and leaves invalid the pixels the
+    left-right check or the speckle filter refuses (add --fill background for a dense
+    map); --preset raw gives the contract's dense winner-take-all map.
 
     Many pairs: give two folders (pairs by file name) or --manifest, and --output-dir.
     A pair that fails is reported and the others go on; the exit code is 1 if any failed.
@@ -163,21 +174,25 @@ def match(left, right, output, manifest, output_dir, suffix, overwrite, summary,
     \b
     Examples:
       csw match left.png right.png -o disp.pfm --dmax 64
-      csw match left.png right.png -o disp.png --csw --tau auto --preview view.png
+      csw match left.png right.png -o disp.pfm --subpixel linear --fill background
+      csw match left.png right.png -o disp.png --preset raw --csw --tau auto
       csw match lefts/ rights/ --output-dir maps/ --dmax 128
       csw match --manifest pairs.csv -O maps/ --suffix .png
     """
     if tau is not None and not csw:
         raise click.BadParameter("tau applies only with CSW on; add --csw or drop --tau",
                                  param_hint="--tau")
-    settings = dict(engine=engine, window=window, dmin=dmin, dmax=dmax, cost=cost, csw=csw,
-                    csw_rule=rule, tau=tau, uniqueness=uniqueness, threads=threads)
+    settings = dict(dmin=dmin, dmax=dmax, csw=csw, tau=tau, uniqueness=uniqueness,
+                    threads=threads)
+    # Engine, cost, window and the stages come from the preset unless given.
+    settings.update(opt.given(ctx, ["engine", "cost", "window", "rule", *opt.STAGE_NAMES],
+                              rename={"rule": "csw_rule"}))
     many = manifest is not None or output_dir is not None or \
         (left is not None and Path(left).is_dir())
     if many:
-        if output or preview or cost_map:
-            raise click.UsageError("-o, --preview and --cost-map are for one pair; many "
-                                   "pairs write into --output-dir")
+        if output or preview or cost_map or confidence_map:
+            raise click.UsageError("-o, --preview, --cost-map and --confidence are for one "
+                                   "pair; many pairs write into --output-dir")
         if bool(manifest) == (left is not None):
             raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")
         if left is not None and (right is None or not Path(right).is_dir()):
@@ -194,14 +209,17 @@ def match(left, right, output, manifest, output_dir, suffix, overwrite, summary,
     output = check_output(output, OUTPUT_SUFFIXES, "--output")
     preview = check_output(preview, (".png",), "--preview")
     cost_map = check_output(cost_map, (".pfm",), "--cost-map")
+    confidence_map = check_output(confidence_map, (".pfm",), "--confidence")
     check_distinct({"LEFT": left, "RIGHT": right},
-                   {"--output": output, "--preview": preview, "--cost-map": cost_map})
+                   {"--output": output, "--preview": preview, "--cost-map": cost_map,
+                    "--confidence": confidence_map})
     if output.suffix.lower() == ".png" and dmax > PNG_MAX_DISPARITY:
         raise click.BadParameter(f"{dmax} is too large for a 16-bit PNG (d*256 must fit); "
                                  "write .pfm or .npy instead", param_hint="--dmax")
     left_img, right_img = load_pair(left, right)
     with opt.library_errors():
-        result = match_pair(left_img, right_img, **settings)
+        result = match_pair(left_img, right_img, want_confidence=bool(confidence_map),
+                            **settings)
 
     disp = result.disparity
     writers = [(output, disparity_writer(output, disp))]
@@ -210,5 +228,7 @@ def match(left, right, output, manifest, output_dir, suffix, overwrite, summary,
     if cost_map:
         m = np.where(result.min_cost >= 0, result.min_cost, np.inf).astype(np.float32)
         writers.append((cost_map, pfm_writer(m)))
+    if confidence_map:
+        writers.append((confidence_map, pfm_writer(result.confidence)))
     write_outputs(writers)
     click.echo(summary_line(result, disp.shape), err=True)

@@ -81,7 +81,9 @@ def cost_option(multiple=False, default=MATCH["cost"]):
                             help=f"Comma-separated costs from {', '.join(COSTS)}.",
                             callback=comma_list(*COSTS))
     return click.option("--cost", type=click.Choice(COSTS), default=default,
-                        show_default=True, help="Matching cost.")
+                        show_default=default is not None,
+                        help="Matching cost" + (" [default: the preset's]." if default is None
+                                                else "."))
 
 
 def engine_option(multiple=False, default=MATCH["engine"]):
@@ -93,7 +95,8 @@ def engine_option(multiple=False, default=MATCH["engine"]):
                             callback=comma_list(*ENGINES),
                             help="Comma-separated engines. " + text)
     return click.option("--engine", type=click.Choice(ENGINES), default=default,
-                        show_default=True, help=text)
+                        show_default=default is not None,
+                        help=text + (" [default: the preset's]" if default is None else ""))
 
 
 RULE_HELP = ("literal: the paper's rule, a match with m <= tau claims its right pixel for "
@@ -112,8 +115,10 @@ def rule_option(multiple=False, default=MATCH["csw_rule"]):
 
 
 def window_option(default=MATCH["window"]):
-    return click.option("--window", "-w", type=int, default=default, show_default=True,
-                        help="Odd window side (9 = the paper's 9x9).")
+    return click.option("--window", "-w", type=int, default=default,
+                        show_default=default is not None,
+                        help="Odd window side (9 = the paper's 9x9)"
+                             + (" [default: the preset's]." if default is None else "."))
 
 
 dmin_option = click.option("--dmin", type=click.IntRange(min=0), default=MATCH["dmin"],
@@ -202,3 +207,85 @@ def pairs(datasets, dataset_dirs, data_dir, download, verify=True):
             with library_errors():
                 pair = scene.load()
             yield pair
+
+
+class OffOrInt(click.ParamType):
+    """A whole number >= 0, or 'off'."""
+
+    name = "N|off"
+
+    def convert(self, value, param, ctx):
+        if value is None or (isinstance(value, str) and value.strip().lower() == "off"):
+            return None
+        try:
+            number = int(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a whole number or 'off'", param, ctx)
+        if number < 0:
+            self.fail("must be >= 0, or 'off'", param, ctx)
+        return number
+
+
+def _preset_names():
+    from csw.defaults import PRESETS
+
+    return list(PRESETS)
+
+
+# The pipeline's stages (csw.pipeline), with their library names.  Their defaults come
+# from the preset (csw.defaults.PRESETS), so the CLI passes only what the user gives.
+STAGE_OPTIONS = [
+    click.option("--preset", type=click.Choice(_preset_names()), default=None,
+                 help=f"accurate: census, left-right check and speckle removal, for real "
+                      f"photographs; raw: the contract's winner-take-all map; paper: the "
+                      f"paper's method (window engine, SAD 9x9, no stage) "
+                      f"[default: {MATCH['preset']}]."),
+    click.option("--prefilter", type=click.Choice(["none", "xsobel"]), default=None,
+                 help="xsobel: StereoBM's x-Sobel prefilter, clipped to +-cap."),
+    click.option("--prefilter-cap", type=click.IntRange(1, 63), default=None,
+                 help=f"The prefilter's cap [default: {MATCH['prefilter_cap']}]."),
+    click.option("--census-window", type=click.IntRange(3, 7), default=None,
+                 help="Census window side for --cost census (odd; 7 or less for 64 bits)."),
+    click.option("--lr-check", type=OffOrInt(), default=None,
+                 help="Left-right check from the same costs: invalid where the right "
+                      "image's match differs by more than N; 'off' to drop it."),
+    click.option("--uniqueness-ratio", type=OffOrInt(), default=None,
+                 help="StereoBM's: invalid where a candidate 2+ away costs within N% of "
+                      "the best."),
+    click.option("--texture-threshold", type=OffOrInt(), default=None,
+                 help="StereoBM's: invalid where the window's summed |x-Sobel| is below N."),
+    click.option("--subpixel", type=click.Choice(["none", "parabola", "linear"]),
+                 default=None, help="Subpixel fit through the costs at d-1, d, d+1."),
+    click.option("--speckle-size", type=click.IntRange(0, 10**7), default=None,
+                 help="Invalidate regions of similar disparity under N pixels (0: off)."),
+    click.option("--speckle-range", type=click.FloatRange(0, 1000), default=None,
+                 help="Largest step between neighbours of one speckle region."),
+    click.option("--median", type=click.Choice(["0", "3", "5", "7"]), default=None,
+                 help="A KxK median over valid pixels (0: off)."),
+    click.option("--fill", type=click.Choice(["none", "background"]), default=None,
+                 help="background: fill invalid pixels as the Middlebury/KITTI kits do."),
+]
+STAGE_NAMES = ["preset", "prefilter", "prefilter_cap", "census_window", "lr_check",
+               "uniqueness_ratio", "texture_threshold", "subpixel", "speckle_size",
+               "speckle_range", "median", "fill"]
+
+
+def stage_options(command):
+    """Decorate a command with every pipeline stage option."""
+    for option in reversed(STAGE_OPTIONS):
+        command = option(command)
+    return command
+
+
+def given(ctx, names, rename=None):
+    """The options among ``names`` that the user gave (on the command line or through
+    the environment), under their library names: the library's table supplies the rest."""
+    from click.core import ParameterSource
+
+    rename = rename or {}
+    out = {}
+    for name in names:
+        if ctx.get_parameter_source(name) not in (ParameterSource.DEFAULT, None):
+            value = ctx.params[name]
+            out[rename.get(name, name)] = int(value) if name == "median" else value
+    return out

@@ -3,6 +3,8 @@
 import click
 
 from csw import plots
+from csw.defaults import PRESETS
+from csw.pipeline import OFF
 from csw.sweep import DEFAULT_TAUS, sweep_rows
 from csw.tau import parse_sweep
 
@@ -56,8 +58,10 @@ def parse_ints(ctx, param, value):
 @opt.data_dir_option
 @opt.download_option
 @opt.verify_option
-def sweep(datasets, dataset_dirs, cost, rules, taus, uniquenesses, window, dmax, threads,
-          plot_path, fmt, data_dir, download, verify):
+@opt.stage_options
+@click.pass_context
+def sweep(ctx, datasets, dataset_dirs, cost, rules, taus, uniquenesses, window, dmax, threads,
+          plot_path, fmt, data_dir, download, verify, **stage_values):
     """Run CSW over a range of tau for each rule and report work saved against bad-1.
 
     Results are the same with either engine; the sweep uses the fast one.
@@ -69,6 +73,9 @@ def sweep(datasets, dataset_dirs, cost, rules, taus, uniquenesses, window, dmax,
       csw sweep -d teddy --tau-range 200:1200:200 --plot teddy.png
     """
     plot_path = check_output(plot_path, (".png",), "--plot")
+    given = opt.given(ctx, opt.STAGE_NAMES)
+    stages = {k: PRESETS[given.pop("preset", "raw")][k] for k in OFF}
+    stages.update(given)
     if plot_path and len(datasets) + len(dataset_dirs) != 1:
         raise click.UsageError("--plot draws one dataset; give a single --dataset")
     rows, names = [], []
@@ -78,7 +85,7 @@ def sweep(datasets, dataset_dirs, cost, rules, taus, uniquenesses, window, dmax,
         with opt.library_errors():
             rows += sweep_rows(pair, cost=cost, rules=rules, taus=taus,
                                uniquenesses=uniquenesses, window=window, dmax=top,
-                               threads=threads,
+                               threads=threads, stages=stages,
                                progress=lambda step: click.echo(f"sweep: {step}", err=True))
     caption = (f"CSW trade-off, {cost.upper()} {window}x{window}: work saved (candidate "
                "costs skipped) against bad-1 over all known ground truth; Nx = N times the "

@@ -7,12 +7,18 @@ validation that runs once at the door, and the result type.
 
 import threading
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numba
 import numpy as np
 
-SAD, SSD, SHD = 0, 1, 2
-COSTS = {"sad": SAD, "ssd": SSD, "shd": SHD}
+SAD, SSD, SHD, CENSUS = 0, 1, 2, 3
+COSTS = {"sad": SAD, "ssd": SSD, "shd": SHD, "census": CENSUS}
+# Census: each pixel becomes a code with one bit per neighbour of its census window
+# (set where the neighbour is darker than the centre); the cost is the Hamming distance of
+# the codes summed over the matching window: SHD over the census codes.
+DEFAULT_CENSUS_WINDOW = 5
+MAX_CENSUS_BITS = 64
 
 # Rules that decide which CSW matches claim their right pixel, and which claims bind
 # (see README, "CSW rules"):
@@ -27,7 +33,7 @@ RULES = {"literal": RULE_LITERAL, "unique": RULE_UNIQUE}
 RULE_SLACK = {RULE_LITERAL: 0, RULE_UNIQUE: 1}
 # The unique rule's default margin (percent) per cost: SSD costs are squares of SAD-like
 # differences, so 1.12 ** 2 ~ 1.25 asks the same distinctiveness of them.
-DEFAULT_UNIQUENESS = {"sad": 12, "ssd": 25, "shd": 12}
+DEFAULT_UNIQUENESS = {"sad": 12, "ssd": 25, "shd": 12, "census": 12}
 
 # One invalid-disparity convention everywhere: -1 in integer maps (inf in PFM files).
 INVALID = -1
@@ -42,12 +48,24 @@ class MatchResult:
     evaluated: number of (pixel, d) candidates whose cost was evaluated.
     candidates: number of candidates plain matching evaluates on the same rows, so
         ``1 - evaluated / candidates`` is the share of work CSW skipped.
+    With ``extras`` (else None), over evaluated candidates only, -1 where none:
+    second_cost: int64 (H, W), the least cost at least 2 disparities from the chosen d
+        (for uniqueness and confidence).
+    prev_cost, next_cost: int64 (H, W), the costs at d - 1 and d + 1 (for subpixel).
+    With ``right_map`` (else None):
+    right_disparity: int32 (H, W), for each right pixel its best left match's d over the
+        evaluated candidates (the smallest d among equal costs; -1 where none): the right
+        image's map, for the left-right check.
     """
 
     disparity: np.ndarray
     min_cost: np.ndarray
     evaluated: int
     candidates: int
+    second_cost: np.ndarray | None = None
+    prev_cost: np.ndarray | None = None
+    next_cost: np.ndarray | None = None
+    right_disparity: np.ndarray | None = None
 
     @property
     def work_saved(self) -> float:
@@ -55,20 +73,31 @@ class MatchResult:
         return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
 
 
-@dataclass
-class Params:
-    """Validated, normalised matching parameters (see :func:`validate`)."""
+class Setup(NamedTuple):
+    """The scalar parameters every driver and worker takes, as one record (a Numba
+    named tuple), validated and normalised by :func:`validate`."""
 
     window: int
     dmin: int
     dmax: int
-    cost: int
+    cost: int  # SAD, SSD or SHD: census arrives as SHD over census codes
     csw: bool
     tau: int
     rule: int
     uniqueness: int  # percent, for RULE_UNIQUE
     slack: int  # a claim by pixel x' binds pixel x only when x - x' > slack
-    rows: np.ndarray  # int64 (n,), the rows to match, ascending
+    extras: bool  # also compute MatchResult's second/prev/next costs
+    right_map: bool  # also compute MatchResult's right_disparity (for the LR check)
+
+
+def census_dtype(census_window):
+    """The narrowest unsigned type holding a census code of this window's bits."""
+    bits = census_window * census_window - 1
+    for dtype in (np.uint8, np.uint16, np.uint32, np.uint64):
+        if bits <= np.iinfo(dtype).bits:
+            return dtype
+    raise ValueError(f"a {census_window}x{census_window} census has {bits} bits, more than "
+                     f"{MAX_CENSUS_BITS}; use a census window of 7 or less")
 
 
 def _as_image(name, image):
@@ -87,10 +116,11 @@ def _as_image(name, image):
 
 
 def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
-             uniqueness=None, slack=None, rows=None):
-    """Check the inputs once and return ``(left, right, Params)``; raise ValueError.
+             uniqueness=None, slack=None, rows=None, census_window=DEFAULT_CENSUS_WINDOW,
+             extras=False, right_map=False):
+    """Check the inputs once and return ``(left, right, Setup, rows)``; raise ValueError.
 
-    left, right: uint8 or uint16 (H, W), equal shapes and dtypes.
+    left, right: uint8 or uint16 (H, W), equal shapes and dtypes.  rows: int64 (n,).
     Every message says how to fix the input.
     """
     left = _as_image("left", left)
@@ -151,9 +181,14 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
             raise ValueError(f"rows must be a 1-D list of row indices in 0..{height - 1}")
         if np.any(np.diff(rows) <= 0):
             raise ValueError("rows must be strictly increasing")
-    params = Params(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule],
-                    int(uniqueness), slack, rows)
-    return left, right, params
+    if cost == "census":
+        census_window = int(census_window)
+        if census_window < 3 or census_window % 2 == 0:
+            raise ValueError(f"census window must be odd and at least 3, got {census_window}")
+        census_dtype(census_window)  # raises when over 64 bits
+    setup = Setup(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule],
+                  int(uniqueness), slack, bool(extras), bool(right_map))
+    return left, right, setup, rows
 
 
 def resolve_uniqueness(cost, uniqueness):

@@ -9,9 +9,7 @@ ratios compare medians from this same run. Prints a Markdown report to stdout an
 import argparse
 import os
 import statistics
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -19,10 +17,9 @@ import numpy as np
 
 from csw import datasets as D
 from csw import kernels
-from csw.io import write_png
 from csw.scoring import score
 from csw.synth import render
-from report_common import cpu_name, now_utc
+from report_common import cpu_name, now_utc, peak_memory_mb
 
 try:
     import cv2
@@ -110,26 +107,6 @@ def window_vs_fast(repeat):
     return {e: statistics.median(t) for e, t in times.items()}
 
 
-PEAK_PROBE = """
-import resource, subprocess, sys
-subprocess.run(sys.argv[1:], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)
-"""
-
-
-def peak_memory_mb():
-    """Peak resident memory (MB) of `csw match` on the 1080p pair, d 0..255, all threads."""
-    left, right, _, _ = render(1920, 1080, dmax=255, seed=0)
-    with tempfile.TemporaryDirectory() as tmp:
-        write_png(f"{tmp}/l.png", left)
-        write_png(f"{tmp}/r.png", right)
-        cmd = ["csw", "match", f"{tmp}/l.png", f"{tmp}/r.png", "-o", f"{tmp}/d.pfm",
-               "--dmax", "255"]
-        out = subprocess.run([sys.executable, "-c", PEAK_PROBE, *cmd], check=True,
-                             capture_output=True, text=True)
-    return int(out.stdout.strip()) / 1024  # ru_maxrss is in KiB on Linux
-
-
 def report(rows, engines, peak_mb, repeat):
     today = now_utc()
     cpu = cpu_name()
@@ -190,7 +167,7 @@ def main():
         print(f"bench-peers: {name} ...", file=sys.stderr, flush=True)
         rows.append(bench_pair(name, ndisp, args.repeat))
     engines = window_vs_fast(max(3, args.repeat // 2))
-    peak = peak_memory_mb()
+    peak = peak_memory_mb(["--preset", "raw"])  # the raw engine StereoBM is timed against
     text = report(rows, engines, peak, args.repeat)
     sys.stdout.write(text)
     if args.output:

@@ -3,6 +3,9 @@ the csw command line that reruns a library call (printed in the reports)."""
 
 import datetime
 import platform
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 
@@ -43,3 +46,27 @@ def command(name, datasets, options):
             words += [flag, ",".join(map(str, value)) if isinstance(value, (list, tuple))
                       else str(value)]
     return " ".join(words)
+
+
+PEAK_PROBE = """
+import resource, subprocess, sys
+subprocess.run(sys.argv[1:], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)
+"""
+
+
+def peak_memory_mb(options=()):
+    """Peak resident memory (MB) of `csw match OPTIONS` on the 1080p synthetic pair,
+    d 0..255, all threads, in a process of its own."""
+    from csw.io import write_png
+    from csw.synth import render
+
+    left, right, _, _ = render(1920, 1080, dmax=255, seed=0)
+    with tempfile.TemporaryDirectory() as tmp:
+        write_png(f"{tmp}/l.png", left)
+        write_png(f"{tmp}/r.png", right)
+        cmd = ["csw", "match", f"{tmp}/l.png", f"{tmp}/r.png", "-o", f"{tmp}/d.pfm",
+               "--dmax", "255", *options]
+        out = subprocess.run([sys.executable, "-c", PEAK_PROBE, *cmd], check=True,
+                             capture_output=True, text=True)
+    return int(out.stdout.strip()) / 1024  # ru_maxrss is in KiB on Linux

@@ -8,8 +8,30 @@ helper can't hide here.
 import numpy as np
 
 
+def census(image, size):
+    """Census codes as Python ints in an object array: one bit per neighbour of the
+    size x size window (edge-replicated), row by row, the centre skipped, the first
+    neighbour most significant; a bit is set where the neighbour is darker."""
+    height, width = image.shape
+    h = size // 2
+    codes = np.zeros((height, width), object)
+    for y in range(height):
+        for x in range(width):
+            code = 0
+            for a in range(-h, h + 1):
+                for b in range(-h, h + 1):
+                    if a == 0 and b == 0:
+                        continue
+                    yy = min(max(y + a, 0), height - 1)
+                    xx = min(max(x + b, 0), width - 1)
+                    code = (code << 1) | int(image[yy, xx] < image[y, x])
+            codes[y, x] = code
+    return codes
+
+
 def window_costs(left, right, y, x, ds, window, cost):
-    """The contract's C(y, x, d) for each d in ds, as a list of Python ints."""
+    """The contract's C(y, x, d) for each d in ds, as a list of Python ints.  For
+    "census", left and right are census code arrays (see census) and the cost is SHD."""
     h = window // 2
     height, width = left.shape
     ys = np.clip(np.arange(y - h, y + h + 1), 0, height - 1)
@@ -23,14 +45,22 @@ def window_costs(left, right, y, x, ds, window, cost):
             out.append(int(np.abs(lw - rw).sum()))
         elif cost == "ssd":
             out.append(int(((lw - rw) ** 2).sum()))
-        else:
+        elif cost == "shd":
             out.append(int(np.bitwise_count((lw ^ rw).astype(np.uint64)).sum()))
+        else:
+            lw, rw = left[np.ix_(ys, xs_l)], right[np.ix_(ys, xs_r)]
+            out.append(sum(bin(a ^ b).count("1") for a, b in zip(lw.ravel(), rw.ravel(),
+                                                                  strict=True)))
     return out
 
 
 def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=None,
-                 rule="literal", uniqueness=None, slack=None):
-    """Reference (disparity int32 (n, W), min_cost int64 (n, W), evaluated int).
+                 rule="literal", uniqueness=None, slack=None, census_window=5, extras=False):
+    """Reference (disparity int32 (n, W), min_cost int64 (n, W), evaluated int), and with
+    ``extras`` a fourth item: a dict of second_cost, prev_cost, next_cost (int64, the
+    least evaluated cost 2 or more from d, the costs at d -/+ 1; -1 where none) and
+    right_disparity (int32: each right pixel's best left match d, smallest d on ties,
+    over evaluated candidates; -1 where none).
 
     CSW rules: "literal" claims the right pixel when m <= tau, and a claim blocks every
     later pixel. "unique" claims only when also some evaluated candidate at least 2 away
@@ -40,15 +70,21 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
     """
     if uniqueness is None:
         uniqueness = 25 if cost == "ssd" else 12
+    if cost == "census":
+        left, right = census(left, census_window), census(right, census_window)
     height, width = left.shape
     rows = range(height) if rows is None else rows
     if slack is None:
         slack = 1 if rule == "unique" else 0
     disp = np.full((len(rows), width), -1, np.int32)
     mins = np.full((len(rows), width), -1, np.int64)
+    more = {k: np.full((len(rows), width), -1, np.int64)
+            for k in ("second_cost", "prev_cost", "next_cost")}
+    more["right_disparity"] = np.full((len(rows), width), -1, np.int32)
     evaluated = 0
     for i, y in enumerate(rows):
         claimant = {}  # right column -> the column of the pixel that last claimed it
+        seen = {}  # right column -> (cost, d) of its best match so far
         for x in range(width):
             ds = [d for d in range(dmin, min(dmax, x) + 1)
                   if not (csw and x - claimant.get(x - d, x) > slack)]
@@ -59,6 +95,15 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
             best = min(costs)
             d_best = ds[costs.index(best)]  # first, i.e. smallest, d attaining the minimum
             disp[i, x], mins[i, x] = d_best, best
+            by_d = dict(zip(ds, costs, strict=True))
+            others = [c for d, c in by_d.items() if abs(d - d_best) >= 2]
+            more["second_cost"][i, x] = min(others) if others else -1
+            more["prev_cost"][i, x] = by_d.get(d_best - 1, -1)
+            more["next_cost"][i, x] = by_d.get(d_best + 1, -1)
+            for d, c in by_d.items():
+                if x - d not in seen or c < seen[x - d][0]:
+                    seen[x - d] = (c, d)
+                    more["right_disparity"][i, x - d] = d
             if not csw or best > np.floor(tau):
                 continue
             if rule == "unique":
@@ -66,4 +111,114 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
                 if not others or min(others) * 100 <= best * (100 + uniqueness):
                     continue
             claimant[x - d_best] = x
+    if extras:
+        return disp, mins, evaluated, more
     return disp, mins, evaluated
+
+
+# The pipeline's stages, brute force (see csw.pipeline and csw.kernels.filters).
+
+def xsobel(image, cap):
+    height, width = image.shape
+    out = np.zeros((height, width), np.uint8)
+
+    def at(y, x):
+        return int(image[min(max(y, 0), height - 1), min(max(x, 0), width - 1)])
+
+    for y in range(height):
+        for x in range(width):
+            g = sum(k * (at(y + a, x + 1) - at(y + a, x - 1)) for a, k in ((-1, 1), (0, 2), (1, 1)))
+            out[y, x] = min(max(g, -cap), cap) + cap
+    return out
+
+
+def textured(image, window, cap, threshold):
+    response = np.abs(xsobel(image, cap).astype(np.int64) - cap)
+    height, width = image.shape
+    h = window // 2
+    out = np.zeros((height, width), bool)
+    for y in range(height):
+        for x in range(width):
+            total = sum(int(response[min(max(y + a, 0), height - 1), min(max(x + b, 0), width - 1)])
+                        for a in range(-h, h + 1) for b in range(-h, h + 1))
+            out[y, x] = total >= threshold
+    return out
+
+
+def lr_consistent(disp, right_disp, limit):
+    height, width = disp.shape
+    out = np.zeros((height, width), bool)
+    for y in range(height):
+        for x in range(width):
+            d = int(disp[y, x])
+            if d >= 0:
+                back = int(right_disp[y, x - d])
+                out[y, x] = back >= 0 and abs(d - back) <= limit
+    return out
+
+
+def subpixel(disp, best, prev, nxt, fit):
+    out = disp.astype(np.float64).copy()
+    for (y, x), d in np.ndenumerate(disp):
+        c, p, n = float(best[y, x]), float(prev[y, x]), float(nxt[y, x])
+        if d < 0 or p < 0 or n < 0:
+            continue
+        denominator = p - 2 * c + n if fit == "parabola" else max(p, n) - c
+        if denominator > 0:
+            out[y, x] = d + min(max((p - n) / (2 * denominator), -0.5), 0.5)
+    return out
+
+
+def speckles(disp, max_size, max_diff):
+    from collections import deque
+
+    height, width = disp.shape
+    seen = np.zeros((height, width), bool)
+    small = np.zeros((height, width), bool)
+    for y0 in range(height):
+        for x0 in range(width):
+            if seen[y0, x0] or np.isnan(disp[y0, x0]):
+                continue
+            region, queue = [], deque([(y0, x0)])
+            seen[y0, x0] = True
+            while queue:
+                y, x = queue.popleft()
+                region.append((y, x))
+                for yy, xx in ((y - 1, x), (y + 1, x), (y, x - 1), (y, x + 1)):
+                    if 0 <= yy < height and 0 <= xx < width and not seen[yy, xx] \
+                            and not np.isnan(disp[yy, xx]) \
+                            and abs(disp[yy, xx] - disp[y, x]) <= max_diff:
+                        seen[yy, xx] = True
+                        queue.append((yy, xx))
+            if len(region) < max_size:
+                for y, x in region:
+                    small[y, x] = True
+    return small
+
+
+def median_valid(disp, size):
+    height, width = disp.shape
+    h = size // 2
+    out = np.full((height, width), np.nan, np.float32)
+    for y in range(height):
+        for x in range(width):
+            if np.isnan(disp[y, x]):
+                continue
+            box = disp[max(y - h, 0):y + h + 1, max(x - h, 0):x + h + 1].ravel()
+            values = sorted(v for v in box if not np.isnan(v))
+            out[y, x] = values[(len(values) - 1) // 2]
+    return out
+
+
+def fill_background(disp):
+    out = disp.copy()
+    for y, row in enumerate(disp):
+        valid = [x for x in range(len(row)) if not np.isnan(row[x])]
+        for x in range(len(row)):
+            if not np.isnan(row[x]):
+                continue
+            left = [row[v] for v in valid if v < x]
+            right = [row[v] for v in valid if v > x]
+            sides = ([left[-1]] if left else []) + ([right[0]] if right else [])
+            out[y, x] = min(sides) if sides else 0.0
+    return out

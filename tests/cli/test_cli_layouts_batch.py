@@ -29,7 +29,7 @@ def test_bench_a_kitti_folder_per_scene_and_total(tmp_path):
         ["total (2 scenes)"] * 2
     first = next(iter(csw.scan_folder(tmp_path))).load()
     assert rows[0]["dmax"] == first.dmax == 95
-    want = csw.match(first.left, first.right, window=5, dmax=95)
+    want = csw.match(first.left, first.right, window=5, dmax=95, preset="raw")
     bad1 = csw.score(want.disparity, first.gt, first.masks)["all"]["bad"][1.0]
     assert rows[0]["error_rate"] == pytest.approx(bad1)
     pooled = [r for r in rows[:4] if not r["csw"]]

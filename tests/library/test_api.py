@@ -4,28 +4,39 @@ import numpy as np
 import pytest
 
 import csw
-from csw import kernels
-from csw.defaults import MATCH
+from csw import kernels, pipeline
+from csw.defaults import MATCH, PRESETS
 from csw.io import luma
 
 
-def test_defaults_are_the_table(small_scene):
+def test_defaults_are_the_table_and_its_preset(small_scene):
     left, right, _, _ = small_scene
     result = csw.match(left, right)
-    for key in ("engine", "cost", "window", "dmin", "dmax", "csw", "csw_rule"):
-        assert result.settings[key] == MATCH[key]
+    chosen = {**MATCH, **PRESETS[MATCH["preset"]]}
+    for key in ("preset", "engine", "cost", "window", "dmin", "dmax", "csw", "csw_rule",
+                *pipeline.OFF):
+        assert result.settings[key] == chosen[key], key
+    disp, _, raw = pipeline.run(left, right, csw.matching.kernel_args(dict(chosen, tau=-1)),
+                                {k: chosen[k] for k in pipeline.OFF})
+    np.testing.assert_array_equal(result.disparity, disp)
+    np.testing.assert_array_equal(result.min_cost, raw.min_cost)
+    assert result.valid.dtype == bool and result.disparity.dtype == np.float32
+
+
+def test_raw_preset_is_the_kernels_map(small_scene):
+    left, right, _, _ = small_scene
+    result = csw.match(left, right, preset="raw")
     raw = kernels.match(left, right, engine="window", window=MATCH["window"],
                         dmin=MATCH["dmin"], dmax=MATCH["dmax"], cost=MATCH["cost"])
     np.testing.assert_array_equal(np.nan_to_num(result.disparity, nan=-1), raw.disparity)
     np.testing.assert_array_equal(result.min_cost, raw.min_cost)
-    assert result.valid.dtype == bool and result.disparity.dtype == np.float32
 
 
 def test_unique_rule_defaults_to_no_tau(small_scene):
     """The old kernels.match default (tau -1) silently turned CSW off; csw.match resolves
     the rule's own default instead."""
     left, right, _, _ = small_scene
-    result = csw.match(left, right, dmax=16, csw=True, csw_rule="unique")
+    result = csw.match(left, right, dmax=16, csw=True, csw_rule="unique", preset="raw")
     assert result.settings["tau"] == float("inf") and result.settings["tau_source"] == "none"
     assert result.work_saved > 0.2
     raw = kernels.match(left, right, engine="fast", window=9, dmin=0, dmax=16, cost="sad",
@@ -35,7 +46,7 @@ def test_unique_rule_defaults_to_no_tau(small_scene):
 
 def test_tau_auto_comes_from_sampled_rows(small_scene):
     left, right, _, _ = small_scene
-    result = csw.match(left, right, dmax=16, csw=True)
+    result = csw.match(left, right, dmax=16, csw=True, preset="raw")
     rows = csw.tau.sample_rows(left.shape[0])
     sample = kernels.match(left, right, engine="fast", window=9, dmin=0, dmax=16, cost="sad",
                            rows=rows)

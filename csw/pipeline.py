@@ -1,0 +1,177 @@
+"""The matching pipeline around the CSW kernels; every stage is an option and off in the
+paper's contract:
+
+  prefilter          "none", or "xsobel": StereoBM's x-Sobel response clipped to
+                     +-prefilter_cap (offset by the cap into 0..2*cap), which absorbs
+                     brightness differences between the views
+  cost               sad, ssd, shd, or census (census_window x census_window codes,
+                     Hamming distance summed over the matching window)
+  CSW                the B-map skip and its rules, as in the contract
+  lr_check N         invalid where |d - d_right(x - d)| > N; the right image's map comes
+                     from the same costs in the same pass (no second match)
+  uniqueness_ratio U StereoBM's: invalid where a candidate 2 or more away costs at most
+                     best * (1 + U/100)
+  texture_threshold T  StereoBM's: invalid where the window's summed |x-Sobel| (the
+                     prefilter's response, capped) is below T
+  subpixel           "none", "parabola" or "linear" (equiangular): a fit through the
+                     costs at d - 1, d, d + 1
+  speckle_size S     invalid where a region of similar disparity (4-connected, steps of at
+                     most speckle_range) has fewer than S pixels (OpenCV's filterSpeckles)
+  median K           a K x K median over valid pixels
+  fill               "none", or "background": the evaluation kits' hole filling
+
+The confidence of a pixel is (second - best) / second of its costs (0..1, 0 where
+invalid or without a second candidate): how distinct the match is.
+"""
+
+import numpy as np
+
+from . import kernels
+from .kernels.filters import fill_background, median_valid, speckle_mask
+
+PREFILTERS = ("none", "xsobel")
+SUBPIXEL = ("none", "parabola", "linear")
+FILLS = ("none", "background")
+
+# The stages' options with their "off" values: the paper's contract.
+OFF = {"prefilter": "none", "prefilter_cap": 31, "census_window": 5, "lr_check": None,
+       "uniqueness_ratio": None, "texture_threshold": None, "subpixel": "none",
+       "speckle_size": 0, "speckle_range": 1.0, "median": 0, "fill": "none"}
+
+
+def xsobel(image, cap):
+    """StereoBM's prefilter: the 3x3 x-Sobel response, clipped to [-cap, cap] and offset
+    by cap, as uint8 (H, W); edge-replicated borders."""
+    p = np.pad(image.astype(np.int32), 1, mode="edge")
+    gx = (p[:-2, 2:] - p[:-2, :-2]) + 2 * (p[1:-1, 2:] - p[1:-1, :-2]) + (p[2:, 2:] - p[2:, :-2])
+    return (np.clip(gx, -cap, cap) + cap).astype(np.uint8)
+
+
+def box_sum(values, window):
+    """Sum over the window x window box centred on each pixel, edge-replicated (exact
+    integer arithmetic, by cumulative sums)."""
+    h = window // 2
+    p = np.pad(values.astype(np.int64), h, mode="edge")
+    c = np.zeros((p.shape[0] + 1, p.shape[1] + 1), np.int64)
+    c[1:, 1:] = p.cumsum(0).cumsum(1)
+    height, width = values.shape
+    return (c[window:window + height, window:window + width] - c[:height, window:window + width]
+            - c[window:window + height, :width] + c[:height, :width])
+
+
+def check(stages):
+    """ValueError, saying how to fix it, for a stage option out of range."""
+    if stages["prefilter"] not in PREFILTERS:
+        raise ValueError(f"prefilter must be one of {', '.join(PREFILTERS)}")
+    if not 1 <= int(stages["prefilter_cap"]) <= 63:
+        raise ValueError("prefilter_cap must be from 1 to 63 (StereoBM's range)")
+    if stages["subpixel"] not in SUBPIXEL:
+        raise ValueError(f"subpixel must be one of {', '.join(SUBPIXEL)}")
+    if stages["fill"] not in FILLS:
+        raise ValueError(f"fill must be one of {', '.join(FILLS)}")
+    for name, low in (("lr_check", 0), ("uniqueness_ratio", 0), ("texture_threshold", 0)):
+        if stages[name] is not None and not low <= stages[name] <= 10**9:
+            raise ValueError(f"{name} must be a whole number >= {low}, or off")
+    if stages["median"] not in (0, 3, 5, 7):
+        raise ValueError("median must be 0 (off), 3, 5 or 7")
+    if stages["speckle_size"] < 0 or stages["speckle_range"] < 0:
+        raise ValueError("speckle_size and speckle_range must be >= 0")
+
+
+def needs_extras(stages):
+    """Whether the kernels must return the second-best and neighbour costs."""
+    return stages["uniqueness_ratio"] is not None or stages["subpixel"] != "none"
+
+
+def prefiltered(left, right, stages):
+    """The images the cost compares: as given, or StereoBM's x-Sobel response."""
+    if stages["prefilter"] == "xsobel":
+        cap = int(stages["prefilter_cap"])
+        return xsobel(left, cap), xsobel(right, cap)
+    return left, right
+
+
+def lr_consistent(disp, right_disp, limit):
+    """bool (H, W): d valid and |d - right_disp(y, x - d)| <= limit."""
+    height, width = disp.shape
+    valid = disp >= 0
+    xr = np.arange(width)[None, :] - np.where(valid, disp, 0)
+    back = np.take_along_axis(right_disp, np.clip(xr, 0, width - 1), axis=1)
+    return valid & (back >= 0) & (np.abs(disp - back) <= limit)
+
+
+def distinct(min_cost, second, ratio):
+    """bool (H, W): no candidate 2 or more away costs <= best * (1 + ratio/100)."""
+    return (second < 0) | (second * 100 > min_cost * (100 + ratio))
+
+
+def textured(left, window, cap, threshold):
+    """bool (H, W): the window's summed |x-Sobel| (capped at cap) reaches threshold."""
+    response = np.abs(xsobel(left, cap).astype(np.int64) - cap)
+    return box_sum(response, window) >= threshold
+
+
+def subpixel_offset(best, prev, nxt, fit):
+    """float64 (H, W) offsets in (-0.5, 0.5] from the costs at d - 1, d, d + 1 (int64, -1
+    where unknown); 0 where a neighbour is unknown or the costs are flat."""
+    best, prev, nxt = (a.astype(np.float64) for a in (best, prev, nxt))
+    known = (prev >= 0) & (nxt >= 0)
+    if fit == "parabola":
+        denominator = prev - 2 * best + nxt
+    else:  # linear: the equiangular (V-shaped) fit, suited to SAD-like costs
+        denominator = np.maximum(prev, nxt) - best
+    ok = known & (denominator > 0)
+    offset = np.zeros_like(best)
+    offset[ok] = (prev[ok] - nxt[ok]) / (2 * denominator[ok])
+    return np.clip(offset, -0.5, 0.5)
+
+
+def confidence_map(min_cost, second, valid):
+    """float32 (H, W): (second - best) / second, 0..1; 0 where invalid or no second."""
+    conf = np.zeros(min_cost.shape, np.float32)
+    ok = valid & (second > 0)
+    conf[ok] = ((second[ok] - min_cost[ok]) / second[ok]).astype(np.float32)
+    return conf
+
+
+def run(left, right, kernel_args, stages, confidence=False):
+    """Run the pipeline: (disparity float32 (H, W) NaN invalid, confidence float32 (H, W),
+    the kernels' MatchResult).
+
+    left, right: uint8/uint16 (H, W).  kernel_args: csw.kernels.match's arguments (engine,
+    window, range, cost, CSW).  stages: OFF's keys (see the module's docstring).
+    confidence: compute the second-best costs for the confidence map even when no stage
+    needs them (else it is 0 where they are not computed).
+    """
+    check(stages)
+    a, b = prefiltered(left, right, stages)
+    raw = kernels.match(a, b, census_window=stages["census_window"],
+                        extras=confidence or needs_extras(stages),
+                        right_map=stages["lr_check"] is not None, **kernel_args)
+    valid = raw.disparity >= 0
+    if stages["lr_check"] is not None:
+        valid &= lr_consistent(raw.disparity, raw.right_disparity, stages["lr_check"])
+    if stages["uniqueness_ratio"] is not None:
+        valid &= distinct(raw.min_cost, raw.second_cost, stages["uniqueness_ratio"])
+    if stages["texture_threshold"] is not None:
+        rows = kernel_args.get("rows")
+        texture = textured(left, kernel_args["window"], int(stages["prefilter_cap"]),
+                           stages["texture_threshold"])
+        valid &= texture if rows is None else texture[rows]
+    disp = raw.disparity.astype(np.float64)
+    if stages["subpixel"] != "none":
+        disp += subpixel_offset(raw.min_cost, raw.prev_cost, raw.next_cost,
+                                stages["subpixel"])
+    disp = np.where(valid, disp, np.nan).astype(np.float32)
+    if stages["speckle_size"] > 0:
+        disp[speckle_mask(disp, int(stages["speckle_size"]),
+                          float(stages["speckle_range"]))] = np.nan
+    if stages["median"]:
+        disp = median_valid(disp, int(stages["median"]))
+    valid = np.isfinite(disp)
+    second = raw.second_cost if raw.second_cost is not None else \
+        np.full(raw.min_cost.shape, -1, np.int64)
+    confidence = confidence_map(raw.min_cost, second, valid)
+    if stages["fill"] == "background":
+        disp = fill_background(disp)
+    return disp, confidence, raw

@@ -1,0 +1,75 @@
+"""Census cost and the extra maps (second-best, neighbour costs, the right image's map)
+equal the oracle bit for bit on both engines, with and without CSW."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from csw import kernels
+from csw.kernels.census import census_transform
+from oracle import census, oracle_match
+
+ENGINES = sorted(kernels.ENGINES)
+
+
+@pytest.mark.parametrize("size", [3, 5, 7])
+def test_census_transform_equals_the_oracle(size):
+    rng = np.random.default_rng(size)
+    image = rng.integers(0, 6, (9, 13)).astype(np.uint8)  # few levels: many ties
+    codes = census_transform(image, size)
+    assert codes.dtype.itemsize * 8 >= size * size - 1
+    assert [[int(v) for v in row] for row in codes] == census(image, size).tolist()
+
+
+def test_census_window_over_64_bits_is_refused():
+    img = np.zeros((12, 12), np.uint8)
+    with pytest.raises(ValueError, match="more than 64"):
+        kernels.match(img, img, engine="fast", window=3, dmin=0, dmax=2, cost="census",
+                      census_window=9)
+
+
+def assert_same(got, want):
+    disp, mins, evaluated, more = want
+    np.testing.assert_array_equal(got.disparity, disp)
+    np.testing.assert_array_equal(got.min_cost, mins)
+    assert got.evaluated == evaluated
+    for name, values in more.items():
+        np.testing.assert_array_equal(getattr(got, name), values, err_msg=name)
+
+
+@settings(deadline=None)
+@given(seed=st.integers(0, 2**31), cost=st.sampled_from(["sad", "census", "shd", "ssd"]),
+       census_window=st.sampled_from([3, 5, 7]), window=st.sampled_from([1, 3, 5]),
+       dmin=st.integers(0, 2), span=st.integers(0, 6),
+       mode=st.sampled_from(["plain", "literal", "unique"]), levels=st.sampled_from([3, 256]))
+def test_extras_and_census_equal_the_oracle(seed, cost, census_window, window, dmin, span,
+                                            mode, levels):
+    rng = np.random.default_rng(seed)
+    left = rng.integers(0, levels, (7, 14)).astype(np.uint8)
+    right = np.roll(left, -2, axis=1) ^ (rng.random(left.shape) < 0.2).astype(np.uint8)
+    dmax = min(dmin + span, 13)
+    csw = mode != "plain"
+    rule = "literal" if mode == "plain" else mode
+    tau = {"plain": -1, "literal": 40, "unique": 10**9}[mode]
+    want = oracle_match(left, right, window, dmin, dmax, cost, csw, tau, rule=rule,
+                        census_window=census_window, extras=True)
+    for engine in ENGINES:
+        got = kernels.match(left, right, engine=engine, window=window, dmin=dmin, dmax=dmax,
+                            cost=cost, csw=csw, tau=tau, rule=rule,
+                            census_window=census_window, extras=True, right_map=True)
+        assert_same(got, want)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+def test_extras_leave_the_map_unchanged_and_sampled_rows_work(engine, small_scene):
+    left, right, _, _ = small_scene
+    options = dict(engine=engine, window=5, dmin=0, dmax=16, cost="census")
+    plain = kernels.match(left, right, **options)
+    extra = kernels.match(left, right, extras=True, right_map=True, **options)
+    assert plain.second_cost is None and plain.right_disparity is None
+    np.testing.assert_array_equal(extra.disparity, plain.disparity)
+    rows = np.array([3, 30, 60])
+    sampled = kernels.match(left, right, right_map=True, rows=rows, **options)
+    assert sampled.second_cost is None
+    np.testing.assert_array_equal(sampled.right_disparity, extra.right_disparity[rows])

@@ -1,0 +1,95 @@
+"""Every pipeline stage equals its brute-force form in tests/oracle.py, and the pipeline
+keeps its promises (checks only remove pixels, fill leaves none invalid, subpixel stays
+within half a pixel of the integer winner)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import csw
+import oracle
+from csw import kernels, pipeline
+from csw.kernels import filters
+
+
+def random_map(rng, shape, levels=5, holes=0.2):
+    disp = rng.integers(0, levels, shape).astype(np.float32)
+    disp[rng.random(shape) < holes] = np.nan
+    return disp
+
+
+@settings(deadline=None)
+@given(seed=st.integers(0, 2**31), cap=st.sampled_from([1, 7, 31]))
+def test_xsobel_and_texture(seed, cap):
+    rng = np.random.default_rng(seed)
+    image = rng.integers(0, 256, (6, 9)).astype(np.uint8)
+    np.testing.assert_array_equal(pipeline.xsobel(image, cap), oracle.xsobel(image, cap))
+    np.testing.assert_array_equal(pipeline.textured(image, 3, cap, 40),
+                                  oracle.textured(image, 3, cap, 40))
+
+
+@settings(deadline=None)
+@given(seed=st.integers(0, 2**31), size=st.integers(1, 12), step=st.sampled_from([0.5, 1, 2]))
+def test_speckle_median_fill(seed, size, step):
+    rng = np.random.default_rng(seed)
+    disp = random_map(rng, (7, 11))
+    np.testing.assert_array_equal(filters.speckle_mask(disp, size, step),
+                                  oracle.speckles(disp, size, step))
+    for k in (3, 5):
+        np.testing.assert_array_equal(filters.median_valid(disp, k), oracle.median_valid(disp, k))
+    filled = filters.fill_background(disp)
+    np.testing.assert_array_equal(filled, oracle.fill_background(disp))
+    assert np.isfinite(filled).all()
+
+
+@settings(deadline=None)
+@given(seed=st.integers(0, 2**31), engine=st.sampled_from(sorted(kernels.ENGINES)),
+       cost=st.sampled_from(["sad", "census", "ssd"]), fit=st.sampled_from(["parabola", "linear"]),
+       lr=st.integers(0, 2), ratio=st.sampled_from([0, 10, 40]), csw_on=st.booleans())
+def test_checks_and_subpixel_equal_the_oracle(seed, engine, cost, fit, lr, ratio, csw_on):
+    rng = np.random.default_rng(seed)
+    left = rng.integers(0, 8, (8, 16)).astype(np.uint8)
+    right = np.roll(left, -2, axis=1)
+    right[rng.random(right.shape) < 0.2] = 3
+    args = dict(engine=engine, window=3, dmin=0, dmax=6, cost=cost, csw=csw_on,
+                tau=10**9 if csw_on else -1, rule="unique")
+    stages = dict(pipeline.OFF, lr_check=lr, uniqueness_ratio=ratio, subpixel=fit)
+    disp, confidence, raw = pipeline.run(left, right, args, stages)
+    want_disp, mins, _, more = oracle.oracle_match(
+        left, right, 3, 0, 6, cost, csw_on, args["tau"], rule="unique", extras=True)
+    valid = oracle.lr_consistent(want_disp, more["right_disparity"], lr)
+    second = more["second_cost"]
+    valid &= (second < 0) | (second * 100 > mins * (100 + ratio))
+    want = oracle.subpixel(want_disp, mins, more["prev_cost"], more["next_cost"], fit)
+    want = np.where(valid, want, np.nan).astype(np.float32)
+    np.testing.assert_array_equal(disp, want)
+    # The checks only remove pixels; subpixel stays within half a pixel of the winner.
+    assert not (np.isfinite(disp) & (raw.disparity < 0)).any()
+    ok = np.isfinite(disp)
+    assert (np.abs(disp[ok] - raw.disparity[ok]) <= 0.5).all()
+    assert ((confidence >= 0) & (confidence <= 1)).all() and (confidence[~ok] == 0).all()
+
+
+def test_fill_leaves_nothing_invalid_and_presets(small_scene):
+    left, right, _, _ = small_scene
+    filled = csw.match(left, right, dmax=16, preset="accurate", fill="background")
+    assert np.isfinite(filled.disparity).all()
+    sparse = csw.match(left, right, dmax=16, preset="accurate")
+    assert 0 < np.isnan(sparse.disparity).mean() < 0.5
+    assert sparse.settings["cost"] == "census"
+    raw = csw.match(left, right, dmax=16, preset="raw")
+    assert np.isfinite(raw.disparity).all()
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(preset="paper", fill="background"), "paper preset"),
+    (dict(preset="nice"), "preset must be one of"),
+    (dict(subpixel="cubic"), "subpixel must be one of"),
+    (dict(median=4), "median must be"),
+    (dict(cost="census", census_window=9), "more than 64"),
+    (dict(prefilter_cap=0, prefilter="xsobel"), "prefilter_cap"),
+])
+def test_bad_stage_options(small_scene, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        csw.match(small_scene[0], small_scene[1], dmax=16, **kwargs)
