@@ -27,7 +27,7 @@ invalid or without a second candidate): how distinct the match is.
 import numpy as np
 
 from . import kernels
-from .kernels.filters import fill_background, median_valid, speckle_mask
+from .kernels.filters import fill_background, lr_consistent, median_valid, speckle_mask
 
 PREFILTERS = ("none", "xsobel")
 SUBPIXEL = ("none", "parabola", "linear")
@@ -91,15 +91,6 @@ def prefiltered(left, right, stages):
     return left, right
 
 
-def lr_consistent(disp, right_disp, limit):
-    """bool (H, W): d valid and |d - right_disp(y, x - d)| <= limit."""
-    height, width = disp.shape
-    valid = disp >= 0
-    xr = np.arange(width)[None, :] - np.where(valid, disp, 0)
-    back = np.take_along_axis(right_disp, np.clip(xr, 0, width - 1), axis=1)
-    return valid & (back >= 0) & (np.abs(disp - back) <= limit)
-
-
 def distinct(min_cost, second, ratio):
     """bool (H, W): no candidate 2 or more away costs <= best * (1 + ratio/100)."""
     return (second < 0) | (second * 100 > min_cost * (100 + ratio))
@@ -158,20 +149,21 @@ def run(left, right, kernel_args, stages, confidence=False):
         texture = textured(left, kernel_args["window"], int(stages["prefilter_cap"]),
                            stages["texture_threshold"])
         valid &= texture if rows is None else texture[rows]
-    disp = raw.disparity.astype(np.float64)
     if stages["subpixel"] != "none":
-        disp += subpixel_offset(raw.min_cost, raw.prev_cost, raw.next_cost,
-                                stages["subpixel"])
-    disp = np.where(valid, disp, np.nan).astype(np.float32)
+        disp = (raw.disparity + subpixel_offset(raw.min_cost, raw.prev_cost, raw.next_cost,
+                                                stages["subpixel"])).astype(np.float32)
+    else:
+        disp = raw.disparity.astype(np.float32)
+    disp[~valid] = np.nan
     if stages["speckle_size"] > 0:
         disp[speckle_mask(disp, int(stages["speckle_size"]),
                           float(stages["speckle_range"]))] = np.nan
     if stages["median"]:
         disp = median_valid(disp, int(stages["median"]))
-    valid = np.isfinite(disp)
-    second = raw.second_cost if raw.second_cost is not None else \
-        np.full(raw.min_cost.shape, -1, np.int64)
-    confidence = confidence_map(raw.min_cost, second, valid)
+    if raw.second_cost is None:  # not computed: no confidence to give
+        confidence = np.zeros(disp.shape, np.float32)
+    else:
+        confidence = confidence_map(raw.min_cost, raw.second_cost, np.isfinite(disp))
     if stages["fill"] == "background":
         disp = fill_background(disp)
     return disp, confidence, raw

@@ -107,3 +107,20 @@ def fill_background(disp):
                 out[y, i] = value
             x = end
     return out
+
+
+@njit(**PARALLEL)
+def lr_consistent(disp, right_disp, limit):
+    """bool (H, W): d = disp[y, x] is valid (>= 0) and its right pixel's own match,
+    right_disp[y, x - d] (-1: none), differs from it by at most ``limit``.
+
+    disp, right_disp: int32 (H, W)."""
+    height, width = disp.shape
+    out = np.zeros((height, width), np.bool_)
+    for y in prange(height):
+        for x in range(width):
+            d = disp[y, x]
+            if d >= 0:
+                back = right_disp[y, x - d]
+                out[y, x] = back >= 0 and abs(d - back) <= limit
+    return out
