@@ -40,6 +40,7 @@ from .contract import (
     SSD,
     candidate_count,
     run_stoppable,
+    stop_requested,
     validate,
 )
 from .window import blocked, extra_maps, is_distinct, pad_edge, popcount, prepare, result
@@ -320,7 +321,7 @@ def _stripe(left_p, right_rev, y0, y1, s, col_sums, row_sums, zero_row, zero_pix
         _shift_columns(left_p[y0 + a], right_rev[y0 + a], zero_pixels, zero_pixels,
                        col_sums, dmin, cost)
     for y in range(y0, y1):
-        if stop[0]:
+        if stop_requested(stop):
             return
         if y > y0:
             # Move down: row y + w - 1 enters the window, row y - 1 leaves (the _sub row).

@@ -24,6 +24,7 @@ from .contract import (
     MatchResult,
     candidate_count,
     run_stoppable,
+    stop_requested,
     validate,
 )
 
@@ -151,7 +152,7 @@ def _window_driver(left_p, right_p, rows, s, disp, min_cost, second, prev, nxt, 
     n, width = disp.shape
     evaluated = np.zeros(n, np.int64)
     for i in prange(n):
-        if stop[0]:
+        if stop_requested(stop):
             continue
         claims = np.empty(width, np.int64)
         costs = np.empty(s.dmax - s.dmin + 1, np.int64)
