@@ -25,7 +25,7 @@ REPEAT = int(os.environ.get("CSW_BENCH_REPEAT", "5"))
 def bench(datasets, **options):
     """csw.bench.run_bench on registered datasets, by default with the window engine and
     the literal rule (the paper's method); returns (rows, the equivalent csw command)."""
-    options = dict(engines=["window"], rules=["literal"], repeat=REPEAT, **options)
+    options = {"engines": ["window"], "rules": ["literal"], "repeat": REPEAT, **options}
     rows, _ = run_bench((D.load(n) for n in datasets), progress=print_progress, **options)
     return rows, command("bench", datasets, options)
 
