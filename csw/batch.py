@@ -94,7 +94,7 @@ def run_job(job, output, **match_options):
 
 
 def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
-               summary=None, **match_options):
+               summary=None, client=None, **match_options):
     """Match every job into ``out_dir/<name><suffix>``.
 
     Parameters
@@ -102,7 +102,7 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     jobs : list of Job
         From :func:`jobs_from_folders` or :func:`jobs_from_manifest`.
     out_dir : path
-        An existing folder.
+        An existing folder (on a cluster: one every worker can write).
     suffix : {".pfm", ".png", ".npy"}
     overwrite : bool
         Redo pairs whose output exists (default: skip them, so a rerun resumes).
@@ -110,14 +110,18 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         A progress bar on stderr.
     summary : path, optional
         Where to write the JSON summary (default ``out_dir/summary.json``).
+    client : dask.distributed.Client, optional
+        Run each pair as a task on this cluster: the workers read the images and write
+        the maps; a worker that dies has its tasks rerun elsewhere (writes are atomic, so
+        a rerun never leaves a partial map).  See :func:`csw.distributed.local_client`.
     **match_options
         As for :func:`csw.match`.
 
     Returns
     -------
     dict
-        The summary: ``counts`` (ok, skipped, failed), ``pairs`` (one entry each, with
-        ``status`` and, for failures, ``error``) and ``options``.
+        The summary: ``counts`` (ok, skipped, failed), ``pairs`` (one entry each, in the
+        jobs' order, with ``status`` and, for failures, ``error``) and ``options``.
     """
     from tqdm import tqdm
 
@@ -128,24 +132,48 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         raise ValueError(f"{out_dir} is not a folder; create it first")
     check_names(jobs)
     resolved = options(**match_options)  # unknown options fail before any work
-    entries = []
     summary = Path(summary) if summary else out_dir / "summary.json"
+    entries = {}
+    todo = []
+    for i, job in enumerate(jobs):
+        output = out_dir / f"{job.name}{suffix}"
+        if output.exists() and not overwrite:
+            entries[i] = {"name": job.name, "left": str(job.left), "right": str(job.right),
+                          "output": str(output), "status": "skipped"}
+        else:
+            todo.append((i, job, output))
+    bar = tqdm(total=len(jobs), initial=len(entries), desc="csw match", unit="pair",
+               file=sys.stderr, disable=not progress)
     try:
-        with tqdm(jobs, desc="csw match", unit="pair", file=sys.stderr,
-                  disable=not progress) as bar:
-            for job in bar:
-                output = out_dir / f"{job.name}{suffix}"
-                if output.exists() and not overwrite:
-                    entries.append({"name": job.name, "left": str(job.left),
-                                    "right": str(job.right), "output": str(output),
-                                    "status": "skipped"})
-                    continue
-                entries.append(run_job(job, output, **match_options))
+        for i, entry in _run(todo, client, match_options):
+            entries[i] = entry
+            bar.update()
     except KeyboardInterrupt:
         # What finished is complete on disk: say so, marked as interrupted, and stop.
-        write_summary(summary, entries, resolved, interrupted=True)
+        write_summary(summary, [entries[i] for i in sorted(entries)], resolved,
+                      interrupted=True)
         raise
-    return write_summary(summary, entries, resolved)
+    finally:
+        bar.close()
+    return write_summary(summary, [entries[i] for i in sorted(entries)], resolved)
+
+
+def _run(todo, client, match_options):
+    """(index, entry) for every (index, job, output), as they finish: here one after
+    another, or as tasks on a Dask client."""
+    if client is None:
+        for i, job, output in todo:
+            yield i, run_job(job, output, **match_options)
+        return
+    from dask.distributed import as_completed
+
+    futures = {client.submit(run_job, job, output, pure=False, **match_options): i
+               for i, job, output in todo}
+    try:
+        for future in as_completed(futures):
+            yield futures[future], future.result()
+    finally:
+        client.cancel(list(futures))
 
 
 def write_summary(path, entries, resolved, interrupted=False):

@@ -91,7 +91,28 @@ def summary_line(result, shape):
             f"invalid {100.0 * result.invalid_share:.1f}%")
 
 
-def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, settings):
+def cluster_client(workers, scheduler):
+    """A Dask client for --workers / --scheduler, or None to run here."""
+    if workers is None and scheduler is None:
+        return None
+    if workers is not None and scheduler is not None:
+        raise click.UsageError("give --workers N (a cluster on this machine) or --scheduler "
+                               "ADDRESS (an existing one), not both")
+    from csw import distributed
+
+    try:
+        if scheduler is not None:
+            return distributed.remote_client(scheduler)
+        return distributed.local_client(workers)
+    except ImportError as exc:
+        raise click.UsageError(str(exc)) from None
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--scheduler" if scheduler
+                                 else "--workers") from None
+
+
+def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, settings,
+                workers=None, scheduler=None):
     """The batch form: pairs from two folders or a manifest, into OUTPUT_DIR."""
     if output_dir is None:
         raise click.UsageError("matching many pairs needs --output-dir DIR")
@@ -101,9 +122,16 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
                                  param_hint="--output-dir")
     with opt.library_errors("--manifest" if manifest else "LEFT"):
         jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left, right)
-    with opt.library_errors():
-        report = match_many(jobs, out, suffix=suffix, overwrite=overwrite, progress=True,
-                            summary=summary, **settings)
+    client = cluster_client(workers, scheduler)
+    try:
+        with opt.library_errors():
+            report = match_many(jobs, out, suffix=suffix, overwrite=overwrite, progress=True,
+                                summary=summary, client=client, **settings)
+    finally:
+        if client is not None:
+            from csw.distributed import close
+
+            close(client)
     counts = report["counts"]
     summary_path = summary or out / "summary.json"
     click.echo(f"{counts['ok']} matched, {counts['skipped']} skipped (output exists; "
@@ -136,6 +164,13 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
 @click.option("--summary", type=click.Path(dir_okay=False),
               help="Many pairs: where to write the JSON summary [default: "
                    "OUTPUT_DIR/summary.json].")
+@click.option("--workers", type=click.IntRange(1, 256), default=None,
+              help="Many pairs: run them on a Dask cluster of N worker processes started "
+                   "on this machine (needs csw[dask]).")
+@click.option("--scheduler", default=None,
+              help="Many pairs: run them on the existing Dask cluster at this address, e.g. "
+                   "tcp://10.0.0.5:8786; its workers must reach the input and output "
+                   "folders.")
 @opt.engine_option(default=None)
 @opt.cost_option(default=None)
 @opt.window_option(default=None)
@@ -155,9 +190,9 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
                    "second best) as PFM.")
 @opt.stage_options
 @click.pass_context
-def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, summary, engine,
-          cost, window, dmin, dmax, csw, rule, tau, uniqueness, threads, preview, cost_map,
-          confidence_map, **stage_values):
+def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, summary, workers,
+          scheduler, engine, cost, window, dmin, dmax, csw, rule, tau, uniqueness, threads,
+          preview, cost_map, confidence_map, **stage_values):
     """Match LEFT against RIGHT (left is the reference) and write the disparity map.
 
     The match of left pixel x is right pixel x - d, for d in [DMIN, DMAX].  With --csw,
@@ -178,6 +213,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
       csw match left.png right.png -o disp.png --preset raw --csw --tau auto
       csw match lefts/ rights/ --output-dir maps/ --dmax 128
       csw match --manifest pairs.csv -O maps/ --suffix .png
+      csw match lefts/ rights/ -O maps/ --workers 2
     """
     if tau is not None and not csw:
         raise click.BadParameter("tau applies only with CSW on; add --csw or drop --tau",
@@ -201,7 +237,9 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
             raise click.BadParameter(f"{dmax} is too large for a 16-bit PNG (d*256 must fit); "
                                      "use --suffix .pfm or .npy", param_hint="--dmax")
         return match_batch(left, right, manifest, output_dir, suffix, overwrite, summary,
-                           settings)
+                           settings, workers, scheduler)
+    if workers is not None or scheduler is not None:
+        raise click.UsageError("--workers and --scheduler are for many pairs (--output-dir)")
     if left is None or right is None:
         raise click.UsageError("give LEFT and RIGHT images (or folders with --output-dir)")
     if output is None:

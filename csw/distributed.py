@@ -1,0 +1,49 @@
+"""Dask clusters for csw: a local one started for a batch, or an existing one by address.
+
+Dask is an optional extra (``pip install 'csw[dask]'``); nothing else in csw imports it.
+Each worker is a process with one task thread; Numba's threads are split so that the
+workers together use the machine's cores once.
+"""
+
+import os
+
+
+def _dask():
+    try:
+        import dask.distributed as distributed
+    except ImportError:
+        raise ImportError("running on a cluster needs Dask: pip install 'csw[dask]'") from None
+    return distributed
+
+
+def local_client(workers):
+    """A Client on a LocalCluster of ``workers`` processes bound to 127.0.0.1 (its
+    dashboard too, on a free port), each with cores // workers Numba threads."""
+    distributed = _dask()
+    workers = int(workers)
+    if not 1 <= workers <= 256:
+        raise ValueError(f"workers must be from 1 to 256, got {workers}")
+    threads = max(1, (os.cpu_count() or 1) // workers)
+    cluster = distributed.LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+        dashboard_address="127.0.0.1:0", env={"NUMBA_NUM_THREADS": str(threads)})
+    return distributed.Client(cluster)
+
+
+def remote_client(address, timeout=10):
+    """A Client on the scheduler at ``address``; ValueError, one line, if unreachable."""
+    distributed = _dask()
+    try:
+        return distributed.Client(address, timeout=f"{timeout}s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ValueError(f"can't reach the Dask scheduler at {address} ({reason[:120]})") \
+            from None
+
+
+def close(client):
+    """Close a client and, for a local one, its cluster."""
+    cluster = getattr(client, "cluster", None)
+    client.close()
+    if cluster is not None:
+        cluster.close()
