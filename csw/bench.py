@@ -119,7 +119,8 @@ def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), ta
 
 # What preset="paper" sets, unless given: the paper's method exactly (window engine,
 # literal rule, its costs, ranges and taus).  Otherwise both engines and both rules.
-PAPER_PRESET = {"engines": ("window",), "rules": ("literal",), "tau": "paper"}
+PAPER_PRESET = {"engines": (PRESETS["paper"]["engine"],), "rules": ("literal",),
+                "tau": "paper"}
 PLAIN_PRESET = {"engines": ("window", "fast"), "rules": ("literal", "unique"), "tau": None}
 
 

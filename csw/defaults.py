@@ -4,6 +4,7 @@ matches read it, so a default can't drift between the library and the CLI.
 A preset is a named set of values over this table; options given explicitly override it.
 """
 
+from .paper import WINDOW as PAPER_WINDOW
 from .pipeline import OFF
 
 MATCH = {
@@ -23,7 +24,7 @@ MATCH = {
 
 PRESETS = {
     # The paper's method exactly, what TABLE II measures: no stage may be added to it.
-    "paper": {"engine": "window", "cost": "sad", "window": 9, **OFF},
+    "paper": {"engine": "window", "cost": "sad", "window": PAPER_WINDOW, **OFF},
     # The contract's raw winner-take-all map, with the engine and cost as given.
     "raw": {**OFF},
     # The pipeline recommended for real photographs, one setting for every dataset

@@ -7,6 +7,7 @@ import click
 from csw import kernels, plots
 from csw.bench import histogram_rows
 from csw.defaults import MATCH
+from csw.matching import check_tau_use
 from csw.tau import paper_tau, resolve_tau
 
 from . import options as opt
@@ -48,8 +49,8 @@ def hist(images, dataset, cost, window, dmin, dmax, csw, tau, plot_path, threads
     """
     if bool(images) == bool(dataset) or (images and len(images) != 2):
         raise click.UsageError("give either LEFT RIGHT or --dataset NAME")
-    if tau is not None and not csw:
-        raise click.BadParameter("tau applies only with --csw", param_hint="--tau")
+    with opt.library_errors("--tau"):
+        check_tau_use(csw, tau)
     plot_path = check_output(plot_path, (".png",), "--plot")
     if dataset:
         pair = next(opt.pairs([dataset], [], data_dir, download, verify))

@@ -17,6 +17,7 @@ from csw.io import (
     png_writer,
     read_image,
 )
+from csw.matching import check_tau_use
 from csw.matching import match as match_pair
 from csw.tau import tau_label
 
@@ -215,11 +216,10 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
       csw match --manifest pairs.csv -O maps/ --suffix .png
       csw match lefts/ rights/ -O maps/ --workers 2
     """
-    if tau is not None and not csw:
-        raise click.BadParameter("tau applies only with CSW on; add --csw or drop --tau",
-                                 param_hint="--tau")
     settings = dict(dmin=dmin, dmax=dmax, csw=csw, tau=tau, uniqueness=uniqueness,
                     threads=threads)
+    with opt.library_errors("--tau"):
+        check_tau_use(csw, tau)  # before any image is read
     # Engine, cost, window and the stages come from the preset unless given.
     settings.update(opt.given(ctx, ["engine", "cost", "window", "rule", *opt.STAGE_NAMES],
                               rename={"rule": "csw_rule"}))
