@@ -134,6 +134,42 @@ def run(left, right, kernel_args, stages, confidence=False):
     confidence: compute the second-best costs for the confidence map even when no stage
     needs them (else it is 0 where they are not computed).
     """
+    disp, conf, raw = match_rows(left, right, kernel_args, stages, confidence)
+    disp, conf = filter_map(disp, conf, stages)
+    return disp, conf, raw
+
+
+def row_overlap(stages, window, cost):
+    """Rows of input above and below a stripe that make :func:`match_rows` on the stripe
+    give exactly the whole image's rows: half the window, plus half the census window,
+    plus one for the x-Sobel (prefilter or texture)."""
+    rows = window // 2
+    if cost == "census":
+        rows += int(stages["census_window"]) // 2
+    if stages["prefilter"] == "xsobel" or stages["texture_threshold"] is not None:
+        rows += 1
+    return rows
+
+
+def filter_overlap(stages):
+    """Rows of disparity above and below a stripe that make :func:`filter_map` exact on
+    it.  A region under S = speckle_size pixels spans at most S - 1 rows beyond any of its
+    pixels; a larger one has S of its pixels within S - 1 rows (its first S pixels in a
+    breadth-first walk), so S - 1 rows decide every region as the whole map does.  The
+    median needs half its side more, of rows the speckle filter got right."""
+    rows = int(stages["speckle_size"]) - 1 if stages["speckle_size"] > 1 else 0
+    return rows + int(stages["median"]) // 2
+
+
+def is_row_local(stages):
+    """Whether :func:`filter_map` works row by row (no speckle filter, no median)."""
+    return filter_overlap(stages) == 0
+
+
+def match_rows(left, right, kernel_args, stages, confidence=False):
+    """The row-local stages: costs, CSW, the validity checks and subpixel.  Returns
+    (disparity float32 (H, W) NaN invalid, confidence float32 (H, W), MatchResult); row y
+    depends only on input rows y +- :func:`row_overlap`."""
     check(stages)
     a, b = prefiltered(left, right, stages)
     raw = kernels.match(a, b, census_window=stages["census_window"],
@@ -155,15 +191,27 @@ def run(left, right, kernel_args, stages, confidence=False):
     else:
         disp = raw.disparity.astype(np.float32)
     disp[~valid] = np.nan
+    if raw.second_cost is None:  # not computed: no confidence to give
+        conf = np.zeros(disp.shape, np.float32)
+    else:
+        conf = confidence_map(raw.min_cost, raw.second_cost, valid)
+    return disp, conf, raw
+
+
+def filter_map(disp, conf, stages):
+    """The 2-D stages on :func:`match_rows`' maps: speckle removal, the median, then the
+    background fill; the confidence is 0 wherever the filters left no disparity.  Returns
+    (disparity, confidence), float32 (H, W); ``disp`` may be changed in place, and a
+    ``conf`` of None stays None."""
     if stages["speckle_size"] > 0:
         disp[speckle_mask(disp, int(stages["speckle_size"]),
                           float(stages["speckle_range"]))] = np.nan
     if stages["median"]:
         disp = median_valid(disp, int(stages["median"]))
-    if raw.second_cost is None:  # not computed: no confidence to give
-        confidence = np.zeros(disp.shape, np.float32)
-    else:
-        confidence = confidence_map(raw.min_cost, raw.second_cost, np.isfinite(disp))
+    if conf is not None and not is_row_local(stages):
+        # Filters only remove pixels (the median keeps the valid set), so masking the
+        # confidence afterwards equals computing it on the filtered map.
+        conf = np.where(np.isfinite(disp), conf, np.float32(0))
     if stages["fill"] == "background":
         disp = fill_background(disp)
-    return disp, confidence, raw
+    return disp, conf

@@ -365,19 +365,27 @@ def _fast_driver(left_p, right_rev, stripes, s, acc_max, disp, min_cost, second,
 
 
 def stripe_bounds(height, window, threads, rows):
-    """int64 (n, 2) [start, end) rows of the stripes.
+    """int64 (n, 2) [start, end) rows of the stripes covering ``rows`` (ascending).
 
-    Starting a stripe costs w rows of column sums, so stripes are as few and tall as
-    load balance allows: one for one thread; otherwise up to 4 per thread, each at least
-    16 windows tall.  A sample of rows (as for tau auto) gets one single-row stripe per
-    row, so its cost follows the sample's size.
+    Starting a stripe costs w rows of column sums, so each run of consecutive rows is cut
+    into stripes as few and tall as load balance allows: one for one thread; otherwise up
+    to 4 per thread, each at least 16 windows tall.  A sample of scattered rows (as for
+    tau auto) gets one single-row stripe per row, so its cost follows the sample's size;
+    a band's core rows (csw.tiled) are one run.
     """
-    if rows.size != height:
-        return np.stack([rows, rows + 1], axis=1).astype(np.int64)
-    per_thread = 1 if threads == 1 else max(1, min(4, height // (threads * 16 * window)))
-    count = max(1, min(threads * per_thread, height))
-    edges = np.linspace(0, height, count + 1).round().astype(np.int64)
-    return np.stack([edges[:-1], edges[1:]], axis=1)
+    if rows.size == 0:
+        return np.zeros((0, 2), np.int64)
+    breaks = np.flatnonzero(np.diff(rows) != 1) + 1
+    starts = rows[np.r_[0, breaks]]
+    ends = rows[np.r_[breaks - 1, rows.size - 1]] + 1
+    stripes = []
+    for start, end in zip(starts, ends, strict=True):
+        run = int(end - start)
+        per_thread = 1 if threads == 1 else max(1, min(4, run // (threads * 16 * window)))
+        count = max(1, min(threads * per_thread, run))
+        edges = start + np.linspace(0, run, count + 1).round().astype(np.int64)
+        stripes.append(np.stack([edges[:-1], edges[1:]], axis=1))
+    return np.concatenate(stripes).astype(np.int64)
 
 
 def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
