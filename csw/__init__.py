@@ -24,13 +24,15 @@ from .matching import Result, match
 from .scoring import score
 from .sweep import sweep_rows
 from .synth import render as synthetic_pair
+from .tiled import TiledResult, match_tiled
 
 try:
     __version__ = version("csw")
 except PackageNotFoundError:  # running from a source tree that was not installed
     __version__ = "0.0.0+unknown"
 
-__all__ = ["DataError", "ImageError", "Job", "Pair", "Result", "bench_rows", "dataset_names",
-           "defaults", "jobs_from_folders", "jobs_from_manifest", "kernels", "load_dataset",
-           "match", "match_many", "read_disparity", "read_image", "scan_folder", "score",
-           "sweep_rows", "synthetic_pair", "total_rows", "write_disparity"]
+__all__ = ["DataError", "ImageError", "Job", "Pair", "Result", "TiledResult", "bench_rows",
+           "dataset_names", "defaults", "jobs_from_folders", "jobs_from_manifest", "kernels",
+           "load_dataset", "match", "match_many", "match_tiled", "read_disparity",
+           "read_image", "scan_folder", "score", "sweep_rows", "synthetic_pair", "total_rows",
+           "write_disparity"]

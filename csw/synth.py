@@ -87,8 +87,9 @@ def make_layers(width, height, dmax, seed):
     return layers
 
 
-def render(width=450, height=375, dmax=64, seed=0):
-    """Render the scene.
+def render(width=450, height=375, dmax=64, seed=0, rows=None):
+    """Render the scene, or rows ``rows = (first, end)`` of it (every pixel depends on its
+    own coordinates only, so a band equals those rows of the whole scene).
 
     Returns (left uint8 (H, W), right uint8 (H, W), gt float32 (H, W) left disparity,
     nonocc bool (H, W): True where the left pixel is visible in the right image).
@@ -98,25 +99,27 @@ def render(width=450, height=375, dmax=64, seed=0):
     if not 1 <= dmax < width:
         raise ValueError(f"dmax must be between 1 and width - 1 ({width - 1})")
     layers = make_layers(width, height, dmax, seed)
-    ys, xs = np.mgrid[0:height, 0:width].astype(np.float64)
+    first, end = (0, height) if rows is None else rows
+    ys, xs = np.mgrid[first:end, 0:width].astype(np.float64)
+    shape = ys.shape
 
     # Left view: nearest layer covering each pixel.  Layers are back to front, and nearer
     # layers have larger disparity, so later layers overwrite earlier ones.
-    owner = np.full((height, width), -1)
-    gt = np.zeros((height, width))
+    owner = np.full(shape, -1)
+    gt = np.zeros(shape)
     for k, layer in enumerate(layers):
         inside = layer.contains(xs, ys)
         d = layer.disparity(xs, ys)
         take = inside & ((owner < 0) | (d > gt))
         owner[take], gt[take] = k, d[take]
-    left = np.zeros((height, width))
+    left = np.zeros(shape)
     for k, layer in enumerate(layers):
         sel = owner == k
         left[sel] = texture(layer, xs[sel], ys[sel])
 
     # Right view: for each layer, the left coordinate that projects to xr.
-    right_d = np.full((height, width), -np.inf)
-    right = np.zeros((height, width))
+    right_d = np.full(shape, -np.inf)
+    right = np.zeros(shape)
     for layer in layers:
         x_left = (xs + layer.b * ys + layer.c) / (1.0 - layer.a)
         inside = layer.contains(x_left, ys)
@@ -129,7 +132,7 @@ def render(width=450, height=375, dmax=64, seed=0):
     xr = xs - gt
     visible = xr >= 0
     xr_near = np.clip(np.round(xr).astype(np.int64), 0, width - 1)
-    shown = right_d[ys.astype(np.int64), xr_near]
+    shown = right_d[ys.astype(np.int64) - first, xr_near]
     nonocc = visible & (shown <= gt + 0.5)
     to8 = lambda img: np.clip(np.round(img), 0, 255).astype(np.uint8)  # noqa: E731
     return to8(left), to8(right), gt.astype(np.float32), nonocc
@@ -151,3 +154,88 @@ def write_scene(directory, width=450, height=375, dmax=64, seed=0):
                       (directory / "gt.pfm", pfm_writer(gt)),
                       (directory / "nonocc.png", png_writer((nonocc * 255).astype(np.uint8)))])
     return left, right, gt, nonocc
+
+
+def _band(args):
+    """render() of rows (first, end): a picklable task for a process pool."""
+    width, height, dmax, seed, first, end = args
+    return render(width, height, dmax, seed, rows=(first, end))[:3]
+
+
+def write_tiff_scene(directory, width, height, dmax=64, seed=0, band=256, processes=None):
+    """Write left.tif, right.tif (uint8) and gt.tif (float32) as tiled TIFFs (BigTIFF when
+    large), rendered ``band`` rows at a time by a pool of processes, each band once, so
+    that a scene bigger than memory can be made: memory follows width x band x the
+    processes.  All three files or none.  Returns their paths."""
+    import os
+    import queue
+    import threading
+    from concurrent.futures import ProcessPoolExecutor
+    from pathlib import Path
+
+    import tifffile
+
+    from .io import atomic_write_all
+
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    tile = 256
+    band = max(tile, band // tile * tile)  # whole rows of tiles per band
+    dtypes = (np.uint8, np.uint8, np.float32)
+    paths = [directory / name for name in ("left.tif", "right.tif", "gt.tif")]
+    done = object()
+
+    def tiles(q):
+        while (item := q.get()) is not done:
+            yield item
+
+    def write_all(tmps):
+        # One thread per file consumes its tiles; this thread renders and deals them out.
+        queues = [queue.Queue(maxsize=4 * -(-width // tile)) for _ in paths]
+        errors = []
+
+        def write(tmp, q, dtype):
+            try:
+                tifffile.imwrite(tmp, tiles(q), shape=(height, width), dtype=dtype,
+                                 tile=(tile, tile), photometric="minisblack",
+                                 bigtiff=height * width * np.dtype(dtype).itemsize > 2**31)
+            except BaseException as exc:  # reported by the renderer below
+                errors.append(exc)
+                while q.get() is not done:  # drain, so the renderer never blocks
+                    pass
+
+        threads = [threading.Thread(target=write, args=(t, q, d))
+                   for t, q, d in zip(tmps, queues, dtypes, strict=True)]
+        for t in threads:
+            t.start()
+        try:
+            jobs = [(width, height, dmax, seed, first, min(height, first + band))
+                    for first in range(0, height, band)]
+            with ProcessPoolExecutor(processes or os.cpu_count() or 1) as pool:
+                for images in pool.map(_band, jobs):
+                    for image, q, dtype in zip(images, queues, dtypes, strict=True):
+                        for top in range(0, image.shape[0], tile):
+                            block = np.zeros((tile, -(-width // tile) * tile), dtype)
+                            part = image[top:top + tile]
+                            block[:part.shape[0], :width] = part
+                            for x in range(0, width, tile):
+                                q.put(block[:, x:x + tile])
+        finally:
+            for q in queues:
+                q.put(done)
+            for t in threads:
+                t.join()
+        if errors:
+            raise errors[0]
+
+    # atomic_write_all writes its files one after another; here one call writes all
+    # three, into the temporary paths it hands out.
+    staged = []
+
+    def stage(tmp):
+        staged.append(tmp)
+        if len(staged) == len(paths):
+            write_all(staged)
+
+    atomic_write_all([(path, stage) for path in paths])
+    return paths

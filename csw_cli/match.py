@@ -20,6 +20,7 @@ from csw.io import (
 from csw.matching import check_tau_use
 from csw.matching import match as match_pair
 from csw.tau import tau_label
+from csw.tiled import TILED_SUFFIXES, match_tiled, parse_size
 
 from . import options as opt
 
@@ -40,7 +41,7 @@ def check_output(path, suffixes, param_hint):
     if not os.access(folder, os.W_OK):
         raise click.BadParameter(f"folder {str(folder)!r} is not writable",
                                  param_hint=param_hint)
-    if path.is_dir():
+    if path.is_dir() and not (path.suffix.lower() == ".zarr" and (path / "zarr.json").exists()):
         raise click.BadParameter(f"{str(path)!r} is a directory", param_hint=param_hint)
     return path
 
@@ -77,7 +78,7 @@ def write_outputs(items):
         raise click.ClickException(f"can't write{where}: {exc.strerror or exc}") from None
 
 
-def summary_line(result, shape):
+def summary_line(result, shape, stripes=None):
     """The one line ``csw match`` prints on stderr about a match."""
     s = result.settings
     height, width = shape
@@ -86,7 +87,7 @@ def summary_line(result, shape):
             else "plain")
     return (f"{width}x{height} d {s['dmin']}..{s['dmax']} {s['cost'].upper()} "
             f"{s['window']}x{s['window']} {mode}, preset {s['preset']} "
-            f"({s['engine']} engine): "
+            f"({s['engine']} engine{f', {stripes} stripe(s)' if stripes else ''}): "
             f"{result.seconds:.3f} s (compile {result.compile_seconds:.2f} s), evaluated "
             f"{100.0 * result.evaluated / max(result.candidates, 1):.1f}% of candidates, "
             f"invalid {100.0 * result.invalid_share:.1f}%")
@@ -145,12 +146,64 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
         raise SystemExit(1)
 
 
+STRIPED_INPUTS = (".npy", ".zarr")  # read by rows only (csw.sources)
+
+
+def use_stripes(left, right, output, confidence, memory_limit, cluster):
+    """Whether one pair goes through csw.match_tiled: asked for (a memory limit, a
+    cluster), needed by a format only it reads or writes, or a pair whose whole-image
+    match would not fit the default memory limit.  Both give the same map."""
+    if memory_limit is not None or cluster:
+        return True
+    if output.suffix.lower() not in OUTPUT_SUFFIXES or \
+            (confidence is not None and confidence.suffix.lower() != ".pfm") or \
+            any(Path(p).suffix.lower() in STRIPED_INPUTS for p in (left, right)):
+        return True
+    from csw.tiled import too_big_for_whole
+
+    with opt.library_errors("LEFT"):
+        return too_big_for_whole(left)
+
+
+def match_striped(left, right, output, confidence, preview, memory_limit, workers,
+                  scheduler, settings):
+    """One pair, stripe by stripe (here, or as tasks on a Dask cluster)."""
+    client = cluster_client(workers, scheduler)
+    try:
+        with opt.library_errors():
+            result = match_tiled(left, right, output, confidence=confidence, preview=preview,
+                                 memory_limit=memory_limit, client=client, progress=True,
+                                 **settings)
+    except OSError as exc:
+        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+        raise click.ClickException(f"can't write{where}: {exc.strerror or exc}") from None
+    finally:
+        if client is not None:
+            from csw.distributed import close
+
+            close(client)
+    click.echo(summary_line(result, result.shape, len(result.plan.stripes)), err=True)
+
+
+def memory_size(ctx, param, value):
+    if value is None:
+        return None
+    try:
+        size = parse_size(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
+    if size <= 0:
+        raise click.BadParameter("must be more than 0")
+    return size
+
+
 @click.command(short_help="Compute disparity maps for rectified pairs.")
 @click.argument("left", type=click.Path(), required=False)
 @click.argument("right", type=click.Path(), required=False)
-@click.option("--output", "-o", type=click.Path(dir_okay=False),
+@click.option("--output", "-o", type=click.Path(),
               help="Disparity map: .pfm (float32, inf invalid), .png (uint16 d*256, "
-                   "0 invalid, KITTI) or .npy (float32, inf invalid).")
+                   "0 invalid, KITTI), .npy (float32, inf invalid), .tif/.tiff (tiled "
+                   "float32, NaN invalid) or .zarr.")
 @click.option("--manifest", type=click.Path(dir_okay=False, exists=True),
               help="Many pairs: a CSV file of left,right[,name] lines (paths relative to "
                    "it). Needs --output-dir.")
@@ -166,12 +219,16 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
               help="Many pairs: where to write the JSON summary [default: "
                    "OUTPUT_DIR/summary.json].")
 @click.option("--workers", type=click.IntRange(1, 256), default=None,
-              help="Many pairs: run them on a Dask cluster of N worker processes started "
-                   "on this machine (needs csw[dask]).")
+              help="Run the pairs (or one pair's stripes) on a Dask cluster of N worker "
+                   "processes started on this machine (needs csw[dask]).")
 @click.option("--scheduler", default=None,
-              help="Many pairs: run them on the existing Dask cluster at this address, e.g. "
-                   "tcp://10.0.0.5:8786; its workers must reach the input and output "
-                   "folders.")
+              help="Run the pairs (or one pair's stripes) on the existing Dask cluster at "
+                   "this address, e.g. tcp://10.0.0.5:8786; its workers must reach the "
+                   "input and output folders.")
+@click.option("--memory-limit", callback=memory_size, default=None,
+              help="One pair, in row stripes that fit this much memory per process "
+                   "(e.g. 512MB, 2GiB; the process adds about 200 MB). Pairs too big for "
+                   "the default, 512MiB, are striped without asking.")
 @opt.engine_option(default=None)
 @opt.cost_option(default=None)
 @opt.window_option(default=None)
@@ -192,8 +249,8 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
 @opt.stage_options
 @click.pass_context
 def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, summary, workers,
-          scheduler, engine, cost, window, dmin, dmax, csw, rule, tau, uniqueness, threads,
-          preview, cost_map, confidence_map, **stage_values):
+          scheduler, memory_limit, engine, cost, window, dmin, dmax, csw, rule, tau, uniqueness,
+          threads, preview, cost_map, confidence_map, **stage_values):
     """Match LEFT against RIGHT (left is the reference) and write the disparity map.
 
     The match of left pixel x is right pixel x - d, for d in [DMIN, DMAX].  With --csw,
@@ -215,6 +272,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
       csw match lefts/ rights/ --output-dir maps/ --dmax 128
       csw match --manifest pairs.csv -O maps/ --suffix .png
       csw match lefts/ rights/ -O maps/ --workers 2
+      csw match big_left.tif big_right.tif -o disp.tif --memory-limit 1GiB
     """
     settings = dict(dmin=dmin, dmax=dmax, csw=csw, tau=tau, uniqueness=uniqueness,
                     threads=threads)
@@ -226,9 +284,10 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     many = manifest is not None or output_dir is not None or \
         (left is not None and Path(left).is_dir())
     if many:
-        if output or preview or cost_map or confidence_map:
-            raise click.UsageError("-o, --preview, --cost-map and --confidence are for one "
-                                   "pair; many pairs write into --output-dir")
+        if output or preview or cost_map or confidence_map or memory_limit:
+            raise click.UsageError("-o, --preview, --cost-map, --confidence and "
+                                   "--memory-limit are for one pair; many pairs write into "
+                                   "--output-dir")
         if bool(manifest) == (left is not None):
             raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")
         if left is not None and (right is None or not Path(right).is_dir()):
@@ -238,22 +297,27 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
                                      "use --suffix .pfm or .npy", param_hint="--dmax")
         return match_batch(left, right, manifest, output_dir, suffix, overwrite, summary,
                            settings, workers, scheduler)
-    if workers is not None or scheduler is not None:
-        raise click.UsageError("--workers and --scheduler are for many pairs (--output-dir)")
     if left is None or right is None:
         raise click.UsageError("give LEFT and RIGHT images (or folders with --output-dir)")
     if output is None:
         raise click.UsageError("give -o/--output FILE for the disparity map")
-    output = check_output(output, OUTPUT_SUFFIXES, "--output")
+    output = check_output(output, TILED_SUFFIXES, "--output")
     preview = check_output(preview, (".png",), "--preview")
     cost_map = check_output(cost_map, (".pfm",), "--cost-map")
-    confidence_map = check_output(confidence_map, (".pfm",), "--confidence")
+    confidence_map = check_output(confidence_map, (".pfm", ".npy", ".tif", ".tiff", ".zarr"),
+                                  "--confidence")
     check_distinct({"LEFT": left, "RIGHT": right},
                    {"--output": output, "--preview": preview, "--cost-map": cost_map,
                     "--confidence": confidence_map})
     if output.suffix.lower() == ".png" and dmax > PNG_MAX_DISPARITY:
         raise click.BadParameter(f"{dmax} is too large for a 16-bit PNG (d*256 must fit); "
                                  "write .pfm or .npy instead", param_hint="--dmax")
+    if use_stripes(left, right, output, confidence_map, memory_limit, workers or scheduler):
+        if cost_map:
+            raise click.UsageError("--cost-map is not written for pairs matched in stripes "
+                                   "(a large pair, --memory-limit, --workers, .tif/.zarr)")
+        return match_striped(left, right, output, confidence_map, preview, memory_limit,
+                             workers, scheduler, settings)
     left_img, right_img = load_pair(left, right)
     with opt.library_errors():
         result = match_pair(left_img, right_img, want_confidence=bool(confidence_map),

@@ -2,7 +2,10 @@
 
 import click
 
-from csw.synth import write_scene
+from csw.synth import write_scene, write_tiff_scene
+
+PNG_MAX_PIXELS = 50_000_000  # rendered whole in memory
+TIFF_MAX_PIXELS = 4_000_000_000  # rendered by row bands
 
 
 def parse_size(ctx, param, value):
@@ -10,8 +13,8 @@ def parse_size(ctx, param, value):
         width, height = (int(v) for v in value.lower().split("x"))
     except ValueError:
         raise click.BadParameter(f"{value!r} is not WIDTHxHEIGHT, e.g. 450x375") from None
-    if width < 8 or height < 8 or width * height > 50_000_000:
-        raise click.BadParameter("size must be at least 8x8 and at most 50 megapixels")
+    if width < 8 or height < 8 or width * height > TIFF_MAX_PIXELS:
+        raise click.BadParameter("size must be at least 8x8 and at most 4 gigapixels")
     return width, height
 
 
@@ -23,7 +26,10 @@ def parse_size(ctx, param, value):
               help="Largest disparity in the scene.")
 @click.option("--seed", type=click.IntRange(0, 2**32 - 1), default=0, show_default=True,
               help="Scene seed.")
-def synth(directory, size, dmax, seed):
+@click.option("--tiff", is_flag=True,
+              help="Write left.tif, right.tif and gt.tif as tiled (Big)TIFFs, rendered by "
+                   "row bands on every core: for pairs bigger than memory.")
+def synth(directory, size, dmax, seed, tiff):
     """Write left.png, right.png, gt.pfm and nonocc.png into DIRECTORY.
 
     The scene is deterministic: a slanted textured background and fronto-parallel boxes
@@ -32,16 +38,23 @@ def synth(directory, size, dmax, seed):
     image.
 
     \b
-    Example:
+    Examples:
       csw synth out/scene --size 640x480 --dmax 64
+      csw synth out/big --size 20000x20000 --dmax 64 --tiff
     """
     width, height = size
     if dmax >= width:
         raise click.BadParameter(f"must be less than the width ({width})", param_hint="--dmax")
+    if not tiff and width * height > PNG_MAX_PIXELS:
+        raise click.BadParameter("over 50 megapixels needs --tiff (rendered by row bands)",
+                                 param_hint="--size")
     try:
-        write_scene(directory, width, height, dmax, seed)
+        if tiff:
+            write_tiff_scene(directory, width, height, dmax, seed)
+        else:
+            write_scene(directory, width, height, dmax, seed)
     except OSError as exc:
         raise click.ClickException(f"can't write the scene to {directory}: "
                                    f"{exc.strerror or exc}") from None
-    click.echo(f"wrote {directory}/left.png, right.png, gt.pfm, nonocc.png "
-               f"({width}x{height}, d up to {dmax})", err=True)
+    names = "left.tif, right.tif, gt.tif" if tiff else "left.png, right.png, gt.pfm, nonocc.png"
+    click.echo(f"wrote {directory}/{names} ({width}x{height}, d up to {dmax})", err=True)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 
 def now_utc():
-    return datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    return datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC")
 
 
 def cpu_name():

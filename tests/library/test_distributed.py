@@ -93,3 +93,20 @@ def test_cli_workers_and_an_unreachable_scheduler(tmp_path):
     assert bad.exit_code == 2 and "can't reach the Dask scheduler" in bad.output
     both = CliRunner().invoke(cli, [*args, "--workers", "2", "--scheduler", "tcp://x:1"])
     assert both.exit_code == 2 and "not both" in both.output
+
+
+def test_the_stripes_of_one_pair_as_cluster_tasks(tmp_path, client):
+    import tifffile
+
+    from csw.tiled import match_tiled
+
+    left, right, _, _ = render(300, 157, dmax=20, seed=3)
+    tifffile.imwrite(tmp_path / "l.tif", left, tile=(32, 32))
+    tifffile.imwrite(tmp_path / "r.tif", right, tile=(32, 32))
+    result = match_tiled(tmp_path / "l.tif", tmp_path / "r.tif", tmp_path / "d.tif",
+                         stripe_rows=20, client=client, dmax=20, subpixel="parabola",
+                         median=3)
+    assert len(result.plan.stripes) == 8
+    want = csw.match(left, right, dmax=20, subpixel="parabola", median=3).disparity
+    np.testing.assert_array_equal(tifffile.imread(tmp_path / "d.tif"), want)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.tif", "l.tif", "r.tif"]

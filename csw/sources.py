@@ -1,0 +1,222 @@
+"""Stereo images read by rows, so that a pair bigger than memory is read a stripe at a time.
+
+A source has ``shape`` (H, W), ``dtype`` (uint8 or uint16, as gray) and ``rows(r0, r1)``,
+which returns the gray rows r0..r1-1 as uint8/uint16 (r1 - r0, W), colour converted as
+:func:`csw.io.to_gray` does for a whole image.  What is read by window:
+
+  .tif/.tiff  tiled or striped TIFF and BigTIFF: only the tiles or strips the rows cross
+              (tifffile, through its zarr view); the first page of a multi-page file
+  .npy        memory-mapped
+  .zarr       a 2-D (or H x W x channels) zarr array
+  arrays      anything sliceable with a shape and dtype (numpy, memmap, zarr)
+
+Other formats (PNG, PPM, JPEG ...) can't be read by rows: the whole image is decoded, on
+first use, and kept for the stripes that follow.
+
+Sources opened from paths pickle as their path, so Dask ships them to workers, which
+open the file themselves.
+"""
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .io import ImageError, read_image, to_gray
+
+TIFF_SUFFIXES = (".tif", ".tiff")
+WINDOWED_SUFFIXES = (*TIFF_SUFFIXES, ".npy", ".zarr")
+
+
+def open_source(image, name="image", probe=True):
+    """A row source for a path or an array; ImageError, one line, when unusable.  The
+    file is checked now (header, pixel type, and with ``probe`` one row decoded) so that
+    a bad input fails before any work."""
+    if isinstance(image, (str, Path)):
+        path = Path(image)
+        if not path.exists():
+            raise ImageError(f"{path}: no such file")
+        suffix = path.suffix.lower()
+        source = (TiffSource(path) if suffix in TIFF_SUFFIXES else
+                  NpySource(path) if suffix == ".npy" else
+                  ZarrSource(path) if suffix == ".zarr" else WholeSource(path))
+    else:
+        source = ArraySource(image, name)
+    if probe:
+        source.rows(0, 1)  # the pixel type, compression and colour are usable
+    return source
+
+
+def _gray(block, name):
+    """Decoded rows (n, W) or (n, W, C) -> uint8/uint16 gray (n, W)."""
+    return to_gray(block, name) if block.shape[0] else block.reshape(block.shape[:2])
+
+
+class _Source:
+    """Shared: pickle as the path (the open handle stays behind), check rows.
+    ``colour``: rows are converted from colour; ``resident_bytes``: memory held for the
+    whole run (a decoded whole image), beside the stripes'."""
+
+    resident_bytes = 0
+
+    def __getstate__(self):
+        return {"path": self.path}
+
+    def __setstate__(self, state):
+        self.__init__(state["path"])
+
+    def rows(self, r0, r1):
+        if not 0 <= r0 <= r1 <= self.shape[0]:
+            raise IndexError(f"rows {r0}..{r1} outside 0..{self.shape[0]}")
+        try:
+            block = self._read(r0, r1)
+        except ImageError:
+            raise
+        except Exception as exc:  # decoders raise many types for damaged data
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise ImageError(f"{self.path}: can't read rows {r0}..{r1} ({reason[:160]})") \
+                from None
+        return _gray(np.asarray(block), str(self.path))
+
+    @property
+    def dtype(self):
+        return self.rows(0, 1).dtype
+
+
+class TiffSource(_Source):
+    """A TIFF or BigTIFF read through tifffile's zarr view of its first page."""
+
+    def __init__(self, path):
+        import tifffile
+        import zarr
+
+        self.path = Path(path)
+        try:
+            with tifffile.TiffFile(self.path) as tif:
+                page = tif.pages.first
+                self._separate = page.planarconfig == tifffile.PLANARCONFIG.SEPARATE
+            self._store = tifffile.imread(self.path, aszarr=True, key=0)
+            self._array = zarr.open(self._store, mode="r")
+        except (tifffile.TiffFileError, ValueError, OSError, KeyError, IndexError) as exc:
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise ImageError(f"{self.path}: not a readable TIFF ({reason[:160]})") from None
+        shape = self._array.shape
+        if self._separate and len(shape) == 3:
+            shape = (shape[1], shape[2], shape[0])
+        if len(shape) not in (2, 3):
+            raise ImageError(f"{self.path}: expected one 2-D image, got shape {shape}")
+        self.shape = tuple(int(n) for n in shape[:2])
+        self.colour = len(shape) == 3
+
+    def _read(self, r0, r1):
+        if self._separate and len(self._array.shape) == 3:
+            return np.moveaxis(self._array[:, r0:r1], 0, -1)
+        return self._array[r0:r1]
+
+
+class NpySource(_Source):
+    """A .npy array (C order), its rows read from the file: a memory map would keep every
+    page it touched in the process's memory."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        try:
+            with open(self.path, "rb") as f:
+                version = np.lib.format.read_magic(f)
+                read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                               else np.lib.format.read_array_header_2_0)
+                shape, fortran, dtype = read_header(f)
+                self._offset = f.tell()
+                size = os.fstat(f.fileno()).st_size
+        except (ValueError, OSError, EOFError) as exc:
+            raise ImageError(f"{self.path}: not a readable .npy array ({str(exc)[:120]})") \
+                from None
+        if len(shape) not in (2, 3) or fortran or dtype.hasobject:
+            raise ImageError(f"{self.path}: expected a 2-D image in C order, got shape "
+                             f"{shape}{' (Fortran order)' if fortran else ''}")
+        self._dtype, self._shape = dtype, shape
+        self._row_bytes = int(np.prod(shape[1:])) * dtype.itemsize
+        if size - self._offset < shape[0] * self._row_bytes:
+            raise ImageError(f"{self.path}: the .npy file is truncated")
+        self.shape = tuple(int(n) for n in shape[:2])
+        self.colour = len(shape) == 3
+
+    def _read(self, r0, r1):
+        with open(self.path, "rb") as f:
+            f.seek(self._offset + r0 * self._row_bytes)
+            block = np.fromfile(f, self._dtype, (r1 - r0) * self._row_bytes
+                                // self._dtype.itemsize)
+        return block.reshape((r1 - r0, *self._shape[1:]))
+
+
+class ZarrSource(_Source):
+    """A zarr array (a .zarr folder)."""
+
+    def __init__(self, path):
+        import zarr
+
+        self.path = Path(path)
+        try:
+            self._array = zarr.open_array(self.path, mode="r")
+        except Exception as exc:  # zarr raises several types for a folder it can't read
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise ImageError(f"{self.path}: not a readable zarr array ({reason[:120]})") \
+                from None
+        if self._array.ndim not in (2, 3):
+            raise ImageError(f"{self.path}: expected a 2-D image, got shape "
+                             f"{self._array.shape}")
+        self.shape = tuple(int(n) for n in self._array.shape[:2])
+        self.colour = self._array.ndim == 3
+
+    def _read(self, r0, r1):
+        return self._array[r0:r1]
+
+
+class WholeSource(_Source):
+    """A format that can't be read by rows: decoded whole on first use, then sliced."""
+
+    def __init__(self, path):
+        self.path = Path(path)
+        self._image = None
+        self.shape = _header_shape(self.path)
+        self.colour = False  # decoded whole, once: not per stripe
+        self.resident_bytes = self.shape[0] * self.shape[1] * 2
+
+    def _read(self, r0, r1):
+        if self._image is None:
+            self._image = read_image(self.path)
+        return self._image[r0:r1]
+
+
+def _header_shape(path):
+    """(H, W) from the file's header, without decoding the pixels."""
+    from PIL import Image
+
+    try:
+        with Image.open(path) as image:
+            width, height = image.size
+    except Exception:
+        return read_image(path).shape  # read_image says why it can't be read
+    return height, width
+
+
+class ArraySource:
+    """An in-memory (or memory-mapped) array, (H, W) or (H, W, C), uint8/uint16."""
+
+    resident_bytes = 0
+
+    def __init__(self, array, name="image"):
+        self.path = name
+        self._array = array
+        shape = getattr(array, "shape", None)
+        if shape is None or len(shape) not in (2, 3):
+            raise ImageError(f"{name}: expected a 2-D image array, got shape {shape}")
+        self.shape = tuple(int(n) for n in shape[:2])
+        self.colour = len(shape) == 3
+
+    def rows(self, r0, r1):
+        return _gray(np.asarray(self._array[r0:r1]), self.path)
+
+    @property
+    def dtype(self):
+        return self.rows(0, 1).dtype

@@ -1,0 +1,103 @@
+"""``csw match`` in row stripes: the same map as a whole-image match, the formats only
+stripes write, and the errors of a memory limit too small or a TIFF that isn't one."""
+
+import numpy as np
+import pytest
+import tifffile
+from click.testing import CliRunner
+
+from csw.io import read_disparity, read_pfm, write_png
+from csw.synth import render
+from csw_cli.main import cli
+
+DMAX = 24
+
+
+def invoke(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+def files_in(folder):
+    return sorted(p.name for p in folder.iterdir())
+
+
+@pytest.fixture
+def pair(tmp_path):
+    left, right, _, _ = render(200, 301, dmax=DMAX, seed=4)
+    write_png(tmp_path / "l.png", left)
+    write_png(tmp_path / "r.png", right)
+    return tmp_path / "l.png", tmp_path / "r.png"
+
+
+def test_a_memory_limit_stripes_the_match_and_changes_nothing(tmp_path, pair):
+    whole = invoke("match", *pair, "-o", tmp_path / "whole.pfm", "--dmax", DMAX,
+                   "--confidence", tmp_path / "wc.pfm")
+    assert whole.exit_code == 0 and "stripe" not in whole.output
+    striped = invoke("match", *pair, "-o", tmp_path / "s.pfm", "--dmax", DMAX,
+                     "--memory-limit", "3MB", "--confidence", tmp_path / "sc.tif")
+    assert striped.exit_code == 0, striped.output
+    assert " stripe(s))" in striped.output.splitlines()[-1]
+    assert "preset accurate (fast engine, 1 stripe(s))" not in striped.output
+    assert (tmp_path / "s.pfm").read_bytes() == (tmp_path / "whole.pfm").read_bytes()
+    np.testing.assert_array_equal(tifffile.imread(tmp_path / "sc.tif"),
+                                  read_pfm(tmp_path / "wc.pfm"))
+
+
+def test_tiff_and_zarr_outputs_need_no_flag(tmp_path, pair):
+    invoke("match", *pair, "-o", tmp_path / "whole.pfm", "--dmax", DMAX)
+    want = read_disparity(tmp_path / "whole.pfm")
+    for name in ("d.tif", "d.zarr", "d.zarr"):  # a second .zarr replaces the first
+        result = invoke("match", *pair, "-o", tmp_path / name, "--dmax", DMAX)
+        assert result.exit_code == 0, result.output
+    import zarr
+
+    np.testing.assert_array_equal(tifffile.imread(tmp_path / "d.tif"), want)
+    np.testing.assert_array_equal(zarr.open_array(tmp_path / "d.zarr", mode="r")[:], want)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--memory-limit", "200kB"], "below what one stripe needs"),
+    (["--memory-limit", "lots"], "a size such as 512MB"),
+    (["--memory-limit", "3MB", "--cost-map", "m.pfm"], "--cost-map is not written"),
+])
+def test_bad_stripe_options_are_one_line_errors(tmp_path, pair, args, message):
+    (tmp_path / "out").mkdir()
+    args = [a if a != "m.pfm" else tmp_path / "out" / a for a in args]
+    result = invoke("match", *pair, "-o", tmp_path / "out" / "d.tif", "--dmax", DMAX, *args)
+    assert result.exit_code == 2 and message in result.output
+    assert len([x for x in result.output.splitlines() if x.startswith("Error:")]) == 1
+    assert files_in(tmp_path / "out") == []
+
+
+def test_a_tiff_that_is_not_one(tmp_path, pair):
+    (tmp_path / "l.tif").write_bytes(b"II*\x00 this is no TIFF")
+    (tmp_path / "out").mkdir()
+    result = invoke("match", tmp_path / "l.tif", pair[1], "-o", tmp_path / "out" / "d.tif",
+                    "--dmax", DMAX)
+    assert result.exit_code == 2 and "not a readable TIFF" in result.output
+    assert "Traceback" not in result.output and files_in(tmp_path / "out") == []
+
+
+def test_the_stripes_of_one_pair_on_a_local_cluster(tmp_path, pair):
+    pytest.importorskip("dask.distributed")
+    invoke("match", *pair, "-o", tmp_path / "whole.pfm", "--dmax", DMAX)
+    result = invoke("match", *pair, "-o", tmp_path / "d.pfm", "--dmax", DMAX,
+                    "--memory-limit", "3MB", "--workers", "2")
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "d.pfm").read_bytes() == (tmp_path / "whole.pfm").read_bytes()
+
+
+def test_synth_writes_the_same_scene_as_tiled_tiffs(tmp_path):
+    assert invoke("synth", tmp_path / "png", "--size", "300x200").exit_code == 0
+    assert invoke("synth", tmp_path / "tif", "--size", "300x200", "--tiff").exit_code == 0
+    from csw.io import read_image
+
+    for name in ("left", "right"):
+        with tifffile.TiffFile(tmp_path / "tif" / f"{name}.tif") as tif:
+            assert tif.pages.first.is_tiled
+            image = tif.asarray()
+        np.testing.assert_array_equal(image, read_image(tmp_path / "png" / f"{name}.png"))
+    np.testing.assert_array_equal(tifffile.imread(tmp_path / "tif" / "gt.tif"),
+                                  read_pfm(tmp_path / "png" / "gt.pfm"))
+    big = invoke("synth", tmp_path / "big", "--size", "10000x6000")
+    assert big.exit_code == 2 and "needs --tiff" in big.output
