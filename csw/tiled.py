@@ -79,7 +79,12 @@ class Plan:
 
 @dataclass
 class TiledResult:
-    """What :func:`match_tiled` returns (the maps themselves are in the output files)."""
+    """What :func:`match_tiled` returns (the maps themselves are in the output files).
+
+    tasks: the stripe tasks' counters summed over both passes: ``count``, ``seconds``
+    (compute, as the tasks measured it), ``bytes_read`` and ``bytes_written`` (decoded
+    pixels and float32 maps moved between the files and the tasks).
+    """
 
     output: Path
     shape: tuple
@@ -91,6 +96,7 @@ class TiledResult:
     compile_seconds: float = 0.0
     invalid: int = 0
     confidence: Path | None = None
+    tasks: dict = field(default_factory=dict)
 
     @property
     def invalid_share(self):
@@ -171,12 +177,10 @@ def plan(height, width, opts, memory_limit=DEFAULT_MEMORY_LIMIT, stripe_rows=Non
                 f"a memory limit of {_mb(memory_limit)} is below what one stripe needs "
                 f"({_mb(need(smallest))} for a {width}-pixel-wide pair with these options); "
                 f"raise the memory limit to at least that")
-        rows = smallest
-        step = max(1, height // 64)
-        while rows < height and need(min(height, rows + step)) <= memory_limit:
-            rows = min(height, rows + step)
-        while rows < height and need(rows + 1) <= memory_limit:
-            rows += 1
+        rows, most = smallest, height  # the tallest stripe that fits: need() only grows
+        while rows < most:
+            middle = (rows + most + 1) // 2
+            rows, most = (middle, most) if need(middle) <= memory_limit else (rows, middle - 1)
     else:
         rows = int(stripe_rows)
         if rows < 1:
@@ -185,9 +189,11 @@ def plan(height, width, opts, memory_limit=DEFAULT_MEMORY_LIMIT, stripe_rows=Non
     return Plan(height, width, rows, over, fover, need(rows))
 
 
-def too_big_for_whole(left, memory_limit=DEFAULT_MEMORY_LIMIT, **given):
-    """Whether matching the pair whole would need more than ``memory_limit`` (by the
-    stripes' memory model, for one stripe the image's height); reads only the header."""
+def too_big_for_whole(left, memory_limit=None, **given):
+    """Whether matching the pair whole would need more than ``memory_limit`` (default:
+    DEFAULT_MEMORY_LIMIT), by the stripes' memory model for one stripe the image's
+    height; reads only the header."""
+    memory_limit = DEFAULT_MEMORY_LIMIT if memory_limit is None else memory_limit
     source = open_source(left, "left", probe=False)
     opts = options(**given)
     height, width = source.shape
@@ -197,7 +203,7 @@ def too_big_for_whole(left, memory_limit=DEFAULT_MEMORY_LIMIT, **given):
 
 def input_band(stripe, plan):
     """(first, end) input rows that stripe (start, stop) is matched from: the overlap each
-    side, within the image, and at least one window tall (the kernels' minimum)."""
+    side, within the image (see _taller for the kernels' minimum height)."""
     start, stop = stripe
     first = max(0, start - plan.row_overlap)
     end = min(plan.height, stop + plan.row_overlap)
@@ -499,10 +505,10 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
     start_time = time.perf_counter()
     totals = _run_passes(left, right, output, confidence, preview, layout, args, st, client,
                          progress)
-    return TiledResult(output, (height, width), layout, totals["evaluated"],
-                       totals["candidates"], settings, time.perf_counter() - start_time,
-                       compile_s, totals["invalid"],
-                       Path(confidence) if confidence is not None else None)
+    return TiledResult(output, (height, width), layout, totals.pop("evaluated"),
+                       totals.pop("candidates"), settings, time.perf_counter() - start_time,
+                       compile_s, totals.pop("invalid"),
+                       Path(confidence) if confidence is not None else None, totals)
 
 
 def _sampled_min_cost(left, right, args, st, layout):
@@ -556,12 +562,14 @@ def _run_passes(left, right, output, confidence, preview, layout, args, st, clie
                  for s in layout.stripes] if two_pass else []
         bar = tqdm(total=len(pass1) + len(pass2), desc="csw match (stripes)", unit="stripe",
                    file=sys.stderr, disable=not progress)
-        totals = {"evaluated": 0, "candidates": 0, "invalid": 0}
+        totals = {"evaluated": 0, "candidates": 0, "invalid": 0, "count": 0, "seconds": 0.0,
+                  "bytes_read": 0, "bytes_written": 0}
         try:
             for function, tasks in ((match_stripe, pass1), (filter_stripe, pass2)):
                 for counts in _map(function, tasks, client):
-                    for key in totals:
-                        totals[key] += counts[key]
+                    for key, value in counts.items():
+                        totals[key] += value
+                    totals["count"] += 1
                     bar.update()
         finally:
             bar.close()

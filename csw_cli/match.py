@@ -149,7 +149,7 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
 STRIPED_INPUTS = (".npy", ".zarr")  # read by rows only (csw.sources)
 
 
-def use_stripes(left, right, output, confidence, memory_limit, cluster):
+def use_stripes(left, right, output, confidence, memory_limit, cluster, settings):
     """Whether one pair goes through csw.match_tiled: asked for (a memory limit, a
     cluster), needed by a format only it reads or writes, or a pair whose whole-image
     match would not fit the default memory limit.  Both give the same map."""
@@ -162,7 +162,7 @@ def use_stripes(left, right, output, confidence, memory_limit, cluster):
     from csw.tiled import too_big_for_whole
 
     with opt.library_errors("LEFT"):
-        return too_big_for_whole(left)
+        return too_big_for_whole(left, **settings)
 
 
 def match_striped(left, right, output, confidence, preview, memory_limit, workers,
@@ -312,7 +312,8 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     if output.suffix.lower() == ".png" and dmax > PNG_MAX_DISPARITY:
         raise click.BadParameter(f"{dmax} is too large for a 16-bit PNG (d*256 must fit); "
                                  "write .pfm or .npy instead", param_hint="--dmax")
-    if use_stripes(left, right, output, confidence_map, memory_limit, workers or scheduler):
+    if use_stripes(left, right, output, confidence_map, memory_limit, workers or scheduler,
+                   settings):
         if cost_map:
             raise click.UsageError("--cost-map is not written for pairs matched in stripes "
                                    "(a large pair, --memory-limit, --workers, .tif/.zarr)")

@@ -101,3 +101,16 @@ def test_synth_writes_the_same_scene_as_tiled_tiffs(tmp_path):
                                   read_pfm(tmp_path / "png" / "gt.pfm"))
     big = invoke("synth", tmp_path / "big", "--size", "10000x6000")
     assert big.exit_code == 2 and "needs --tiff" in big.output
+
+
+def test_a_pair_too_big_for_the_default_limit_is_striped_unasked(tmp_path, pair, monkeypatch):
+    import csw.tiled
+
+    invoke("match", *pair, "-o", tmp_path / "whole.pfm", "--dmax", DMAX)
+    monkeypatch.setattr(csw.tiled, "DEFAULT_MEMORY_LIMIT", 3 * 10**6)  # as if the pair were big
+    result = invoke("match", *pair, "-o", tmp_path / "d.pfm", "--dmax", DMAX)
+    assert result.exit_code == 0 and " stripe(s))" in result.output
+    assert "1 stripe(s)" not in result.output
+    assert (tmp_path / "d.pfm").read_bytes() == (tmp_path / "whole.pfm").read_bytes()
+    small = invoke("match", *pair, "-o", tmp_path / "r.pfm", "--dmax", DMAX, "--preset", "raw")
+    assert "stripe" not in small.output  # the raw preset's whole match fits
