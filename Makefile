@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test bench bench-peers tradeoff quality lint format clean
+.PHONY: run test bench bench-peers bench-scale tradeoff quality lint format clean
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -36,6 +36,9 @@ bench: $(VENV)/.installed-dev
 
 bench-peers: $(VENV)/.installed-dev
 	scripts/bench_peers.sh
+
+bench-scale: $(VENV)/.installed-dev
+	scripts/bench_scale.sh
 
 tradeoff: $(VENV)/.installed-dev
 	scripts/tradeoff.sh
