@@ -9,7 +9,14 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .io import OUTPUT_SUFFIXES, ImageError, atomic_write, read_image, write_disparity
+from .io import (
+    OUTPUT_SUFFIXES,
+    ImageError,
+    atomic_write,
+    read_image,
+    remove_temporaries,
+    write_disparity,
+)
 from .matching import match, options
 
 IMAGE_SUFFIXES = (".png", ".ppm", ".pgm", ".pnm", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg")
@@ -155,6 +162,10 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         raise
     finally:
         bar.close()
+    # Every task has finished: a temporary file still beside an output was left by a
+    # worker killed mid-write (its task was rerun elsewhere), so it can go.
+    for _, _, output in todo:
+        remove_temporaries(output)
     return write_summary(summary, [entries[i] for i in sorted(entries)], resolved)
 
 

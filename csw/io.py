@@ -252,6 +252,18 @@ def _clean_stale(directory, name):
             pass
 
 
+def remove_temporaries(path):
+    """Remove every temporary file of target ``path``, whatever its age: for a caller that
+    knows no writer of it is still running (a batch whose tasks have all finished, after
+    a killed worker left one behind)."""
+    path = Path(path)
+    for tmp in path.parent.glob(f"{TMP_PREFIX}{path.name}.*.tmp"):
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+
+
 def atomic_write(path, write_to):
     """Write ``path`` by calling ``write_to(tmp_path)`` then renaming, so a failure or an
     interrupt never leaves a partial file at ``path``.

@@ -52,6 +52,19 @@ def test_rerun_skips_finished_outputs_unless_overwrite(folders):
     assert redo["counts"]["ok"] == 3 and (root / "out" / "p0.npy").is_file()
 
 
+def test_a_killed_writer_s_temporary_file_goes_when_the_batch_ends(folders):
+    """A worker killed mid-write leaves p1.pfm's temporary file, too fresh for the
+    day-old rule; once every task has finished, the batch removes it."""
+    root, _ = folders
+    left_behind = root / "out" / ".csw-tmp.p1.pfm.abc123.tmp"
+    left_behind.write_bytes(b"half a map")
+    unrelated = root / "out" / ".csw-tmp.other.pfm.abc123.tmp"
+    unrelated.write_bytes(b"someone else's")
+    jobs = csw.jobs_from_folders(root / "left", root / "right")
+    assert csw.match_many(jobs, root / "out", dmax=12, progress=False)["counts"]["ok"] == 3
+    assert not left_behind.exists() and unrelated.exists()
+
+
 def test_manifest_names_and_relative_paths(folders):
     root, scenes = folders
     (root / "pairs.csv").write_text("# left,right,name\nleft/p0.png,right/p0.png,first\n\n"
