@@ -173,19 +173,31 @@ class ZarrSource(_Source):
 
 
 class WholeSource(_Source):
-    """A format that can't be read by rows: decoded whole on first use, then sliced."""
+    """A format that can't be read by rows: decoded whole on first use, then sliced.  The
+    decoded image is kept per process (the last two files), so the stripe tasks that a
+    worker runs for the same pair decode it once."""
 
     def __init__(self, path):
         self.path = Path(path)
-        self._image = None
         self.shape = _header_shape(self.path)
-        self.colour = False  # decoded whole, once: not per stripe
+        self.colour = False  # converted once, with the whole image
         self.resident_bytes = self.shape[0] * self.shape[1] * 2
 
     def _read(self, r0, r1):
-        if self._image is None:
-            self._image = read_image(self.path)
-        return self._image[r0:r1]
+        return _decoded(self.path)[r0:r1]
+
+
+_DECODED = {}  # (path, mtime, size) -> gray image, the last two
+
+
+def _decoded(path):
+    stat = path.stat()
+    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+    if key not in _DECODED:
+        while len(_DECODED) >= 2:
+            _DECODED.pop(next(iter(_DECODED)))
+        _DECODED[key] = read_image(path)
+    return _DECODED[key]
 
 
 def _header_shape(path):
