@@ -200,12 +200,16 @@ def read_disparity(path, scale=None):
     return disp
 
 
+def pfm_header(width, height):
+    """Middlebury v3 PFM's header: 'Pf', width height, -1 (little-endian); the rows
+    follow bottom to top."""
+    return f"Pf\n{width} {height}\n-1\n".encode("ascii")
+
+
 def _pfm_bytes(disp):
-    """Middlebury v3 PFM: 'Pf', width height, -1 (little-endian), rows bottom to top."""
     disp = np.asarray(disp, dtype="<f4")
     height, width = disp.shape
-    header = f"Pf\n{width} {height}\n-1\n".encode("ascii")
-    return header + np.flipud(disp).tobytes()
+    return pfm_header(width, height) + np.flipud(disp).tobytes()
 
 
 def as_float_disparity(disp, dtype=np.float64):
@@ -312,12 +316,7 @@ def disparity_writer(path, disp):
     if suffix == ".pfm":
         return pfm_writer(disparity_to_file_float(disp))
     if suffix == ".png":
-        values = as_float_disparity(disp)
-        if np.nanmax(values, initial=0) > PNG_MAX_DISPARITY:
-            raise ValueError("disparities above 255 don't fit a 16-bit PNG; write .pfm")
-        # KITTI stores 0 for invalid, so d = 0 is indistinguishable from invalid there.
-        return png_writer(np.where(np.isfinite(values), np.round(values * 256), 0)
-                          .astype(np.uint16))
+        return png_writer(kitti_png_values(disp))
     if suffix == ".npy":
         arr = disparity_to_file_float(disp)
 
@@ -327,6 +326,27 @@ def disparity_writer(path, disp):
 
         return save
     raise ValueError(f"unknown output extension {suffix!r}; use .pfm, .png or .npy")
+
+
+def kitti_png_values(disp):
+    """A disparity map (any of csw's conventions) as KITTI's uint16 round(d * 256), 0
+    where invalid; ValueError when a disparity is too large for 16 bits."""
+    values = as_float_disparity(disp)
+    if np.nanmax(values, initial=0) > PNG_MAX_DISPARITY:
+        raise ValueError("disparities above 255 don't fit a 16-bit PNG; write .pfm")
+    # KITTI stores 0 for invalid, so d = 0 is indistinguishable from invalid there.
+    return np.where(np.isfinite(values), np.round(values * 256), 0).astype(np.uint16)
+
+
+def tiff_tiles(blocks, width, dtype, fill=0, tile=256):
+    """(tile, tile) tiles in a TIFF's order from row blocks of ``tile`` rows each (the
+    last may be shorter), padded with ``fill`` past the image's edges: what tifffile
+    writes a tiled image from, a band at a time."""
+    for block in blocks:
+        padded = np.full((tile, -(-width // tile) * tile), fill, dtype)
+        padded[:block.shape[0], :width] = block
+        for x in range(0, width, tile):
+            yield padded[:, x:x + tile]
 
 
 def pfm_writer(values):

@@ -17,6 +17,7 @@ Sources opened from paths pickle as their path, so Dask ships them to workers, w
 open the file themselves.
 """
 
+import functools
 import os
 from pathlib import Path
 
@@ -78,8 +79,9 @@ class _Source:
                 from None
         return _gray(np.asarray(block), str(self.path))
 
-    @property
+    @functools.cached_property
     def dtype(self):
+        """The gray rows' dtype (one row decoded, once)."""
         return self.rows(0, 1).dtype
 
 
@@ -212,10 +214,9 @@ def _header_shape(path):
     return height, width
 
 
-class ArraySource:
-    """An in-memory (or memory-mapped) array, (H, W) or (H, W, C), uint8/uint16."""
-
-    resident_bytes = 0
+class ArraySource(_Source):
+    """An in-memory (or memory-mapped) array, (H, W) or (H, W, C), uint8/uint16; it
+    pickles whole, as any array does."""
 
     def __init__(self, array, name="image"):
         self.path = name
@@ -226,9 +227,11 @@ class ArraySource:
         self.shape = tuple(int(n) for n in shape[:2])
         self.colour = len(shape) == 3
 
-    def rows(self, r0, r1):
-        return _gray(np.asarray(self._array[r0:r1]), self.path)
+    def __getstate__(self):
+        return self.__dict__
 
-    @property
-    def dtype(self):
-        return self.rows(0, 1).dtype
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+
+    def _read(self, r0, r1):
+        return self._array[r0:r1]

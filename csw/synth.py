@@ -175,7 +175,7 @@ def write_tiff_scene(directory, width, height, dmax=64, seed=0, band=256, proces
 
     import tifffile
 
-    from .io import atomic_write_all
+    from .io import atomic_write_all, tiff_tiles
 
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -214,12 +214,9 @@ def write_tiff_scene(directory, width, height, dmax=64, seed=0, band=256, proces
             with ProcessPoolExecutor(processes or os.cpu_count() or 1) as pool:
                 for images in pool.map(_band, jobs):
                     for image, q, dtype in zip(images, queues, dtypes, strict=True):
-                        for top in range(0, image.shape[0], tile):
-                            block = np.zeros((tile, -(-width // tile) * tile), dtype)
-                            part = image[top:top + tile]
-                            block[:part.shape[0], :width] = part
-                            for x in range(0, width, tile):
-                                q.put(block[:, x:x + tile])
+                        blocks = (image[top:top + tile] for top in range(0, len(image), tile))
+                        for piece in tiff_tiles(blocks, width, dtype, tile=tile):
+                            q.put(piece)
         finally:
             for q in queues:
                 q.put(done)

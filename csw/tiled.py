@@ -28,7 +28,16 @@ from pathlib import Path
 import numpy as np
 
 from . import kernels
-from .io import PNG_MAX_DISPARITY, TMP_PREFIX, atomic_write_all, colorize
+from .io import (
+    PNG_MAX_DISPARITY,
+    TMP_PREFIX,
+    atomic_write_all,
+    colorize,
+    disparity_to_file_float,
+    kitti_png_values,
+    pfm_header,
+    tiff_tiles,
+)
 from .matching import check_tau_use, kernel_args, options, stages, warm_up
 from .pipeline import OFF, filter_map, filter_overlap, is_row_local, match_rows, row_overlap
 from .sources import open_source
@@ -55,7 +64,8 @@ class MemoryLimitError(ValueError):
 @dataclass
 class Plan:
     """How a pair is cut: core stripes of ``stripe_rows`` rows (the last may be shorter),
-    each read with ``row_overlap`` input rows and ``filter_overlap`` map rows beyond."""
+    each read with ``row_overlap`` input rows and ``filter_overlap`` map rows beyond, and
+    at least ``window`` input rows (the kernels' minimum)."""
 
     height: int
     width: int
@@ -63,6 +73,7 @@ class Plan:
     row_overlap: int
     filter_overlap: int
     bytes_per_stripe: int
+    window: int = 1
 
     @property
     def stripes(self):
@@ -186,7 +197,7 @@ def plan(height, width, opts, memory_limit=DEFAULT_MEMORY_LIMIT, stripe_rows=Non
         if rows < 1:
             raise ValueError(f"stripe_rows must be at least 1, got {rows}")
         rows = min(rows, height)
-    return Plan(height, width, rows, over, fover, need(rows))
+    return Plan(height, width, rows, over, fover, need(rows), opts["window"])
 
 
 def too_big_for_whole(left, memory_limit=None, **given):
@@ -203,10 +214,13 @@ def too_big_for_whole(left, memory_limit=None, **given):
 
 def input_band(stripe, plan):
     """(first, end) input rows that stripe (start, stop) is matched from: the overlap each
-    side, within the image (see _taller for the kernels' minimum height)."""
+    side, within the image, grown to at least one window (the kernels refuse fewer rows;
+    rows beyond the overlap change nothing, they are only more context)."""
     start, stop = stripe
     first = max(0, start - plan.row_overlap)
     end = min(plan.height, stop + plan.row_overlap)
+    while end - first < min(plan.window, plan.height):
+        first, end = max(0, first - 1), min(plan.height, end + 1)
     return first, end
 
 
@@ -214,15 +228,6 @@ def map_band(stripe, plan):
     """(first, end) rows of the first pass's map that the 2-D filters read for a stripe."""
     start, stop = stripe
     return max(0, start - plan.filter_overlap), min(plan.height, stop + plan.filter_overlap)
-
-
-def _taller(band, height, window):
-    """Grow a band to at least one window's rows (the kernels refuse fewer); rows beyond
-    the overlap change nothing, they are only more context."""
-    first, end = band
-    while end - first < min(window, height):
-        first, end = max(0, first - 1), min(height, end + 1)
-    return first, end
 
 
 # ---------------------------------------------------------------------------- the tasks
@@ -258,14 +263,12 @@ def match_stripe(task):
 def filter_stripe(task):
     """Pass 2 for one stripe: read the first pass's map over the band, run the 2-D
     filters and write the core rows.  Returns counters as :func:`match_stripe`."""
-    import zarr
-
     start_time = time.perf_counter()
     (start, stop), (first, end) = task["stripe"], task["band"]
-    disp = zarr.open_array(task["stage"], mode="r")[first:end]
+    disp = _array(task["stage"])[first:end]
     conf = None
     if task["stage_confidence"] is not None:
-        conf = zarr.open_array(task["stage_confidence"], mode="r")[first:end]
+        conf = _array(task["stage_confidence"])[first:end]
     disp, conf = filter_map(disp, conf, task["stages"])
     core = slice(start - first, stop - first)
     _write(task["disparity"], start, disp[core])
@@ -292,9 +295,7 @@ def _give_back_memory():
 
 
 def _write(store, start, values):
-    import zarr
-
-    zarr.open_array(store, mode="r+")[start:start + values.shape[0]] = values
+    _array(store, "r+")[start:start + values.shape[0]] = values
 
 
 def _create_store(path, shape, chunk_rows, compress):
@@ -311,23 +312,22 @@ def _create_store(path, shape, chunk_rows, compress):
 # ---------------------------------------------------------------------------- the outputs
 
 
-def _stripes_of(store, rows=TIFF_TILE):
-    """(start, float32 rows) of a store, top to bottom, ``rows`` at a time."""
-    import zarr
-
-    array = zarr.open_array(store, mode="r")
-    for start in range(0, array.shape[0], rows):
+def _stripes_of(store, rows=TIFF_TILE, bottom_up=False):
+    """(start, float32 rows) of a store, ``rows`` at a time, top to bottom (or bottom to
+    top)."""
+    array = _array(store)
+    starts = range(0, array.shape[0], rows)
+    for start in reversed(starts) if bottom_up else starts:
         yield start, array[start:start + rows]
 
 
 def output_writer(path, store, shape, kind="disparity", dmax=None):
     """A ``write_to(tmp)`` that writes a store's map to ``path`` in the format of its
-    suffix, a stripe at a time.  Disparity: NaN invalid in TIFF/zarr (GDAL's nodata),
-    inf in PFM/NPY, 0 in PNG (d x 256, KITTI).  kind "preview": an 8-bit colour PNG of
-    the disparity (csw.io.colorize, up to ``dmax``)."""
+    suffix, a stripe at a time, with csw.io's conventions: NaN invalid in TIFF/zarr
+    (GDAL's nodata tag), inf in PFM/NPY, 0 in PNG (d x 256, KITTI).  kind "preview": an
+    8-bit colour PNG of the disparity (csw.io.colorize, up to ``dmax``)."""
     suffix = Path(path).suffix.lower()
     height, width = shape
-    invalid = np.inf if kind == "disparity" else 0.0
     if kind == "preview":
         import png
 
@@ -337,66 +337,48 @@ def output_writer(path, store, shape, kind="disparity", dmax=None):
             with open(tmp, "wb") as f:
                 png.Writer(width, height, greyscale=False, bitdepth=8).write(f, rows)
         return write
-
     if suffix in (".tif", ".tiff"):
         import tifffile
 
-        def tiles():
-            for _, block in _stripes_of(store, TIFF_TILE):
-                padded = np.full((TIFF_TILE, -(-width // TIFF_TILE) * TIFF_TILE), np.nan,
-                                 np.float32)
-                padded[:block.shape[0], :width] = block
-                for x in range(0, width, TIFF_TILE):
-                    yield padded[:, x:x + TIFF_TILE]
-
         def write(tmp):
-            tifffile.imwrite(tmp, tiles(), shape=shape, dtype=np.float32,
-                             tile=(TIFF_TILE, TIFF_TILE), bigtiff=height * width * 4 > 2**31,
-                             photometric="minisblack",
+            blocks = (block for _, block in _stripes_of(store, TIFF_TILE))
+            tifffile.imwrite(tmp, tiff_tiles(blocks, width, np.float32, np.nan, TIFF_TILE),
+                             shape=shape, dtype=np.float32, tile=(TIFF_TILE, TIFF_TILE),
+                             bigtiff=height * width * 4 > 2**31, photometric="minisblack",
                              extratags=[(42113, "s", 0, "nan", True)])  # GDAL_NODATA
         return write
     if suffix == ".pfm":
         def write(tmp):
             with open(tmp, "wb") as f:
-                f.write(f"Pf\n{width} {height}\n-1\n".encode("ascii"))
-                starts = list(range(0, height, TIFF_TILE))
-                array = _open(store)
-                for start in reversed(starts):  # PFM stores the bottom row first
-                    block = array[start:start + TIFF_TILE]
-                    f.write(np.flipud(np.where(np.isfinite(block), block, invalid))
-                            .astype("<f4").tobytes())
+                f.write(pfm_header(width, height))
+                for _, block in _stripes_of(store, bottom_up=True):
+                    f.write(np.flipud(disparity_to_file_float(block)).astype("<f4").tobytes())
         return write
     if suffix == ".npy":
         def write(tmp):
             out = np.lib.format.open_memmap(tmp, mode="w+", dtype="<f4", shape=shape)
             for start, block in _stripes_of(store):
-                out[start:start + block.shape[0]] = np.where(np.isfinite(block), block,
-                                                             invalid)
+                out[start:start + block.shape[0]] = disparity_to_file_float(block)
             out.flush()
             del out
         return write
     if suffix == ".png":
         import png
 
-        def rows():
-            for _, block in _stripes_of(store):
-                if np.nanmax(block, initial=0) > PNG_MAX_DISPARITY:
-                    raise ValueError("disparities above 255 don't fit a 16-bit PNG; "
-                                     "write .tif, .pfm or .npy")
-                yield from np.where(np.isfinite(block), np.round(block * 256), 0)\
-                    .astype(np.uint16)
-
         def write(tmp):
+            rows = (row for _, block in _stripes_of(store) for row in kitti_png_values(block))
             with open(tmp, "wb") as f:
-                png.Writer(width, height, greyscale=True, bitdepth=16).write(f, rows())
+                png.Writer(width, height, greyscale=True, bitdepth=16).write(f, rows)
         return write
     raise ValueError(f"unknown output extension {suffix!r}; use {', '.join(TILED_SUFFIXES)}")
 
 
-def _open(store):
+def _array(store, mode="r"):
+    """The zarr array at ``store`` (zarr is imported when first needed: it is slow to
+    import, and most csw commands never use it)."""
     import zarr
 
-    return zarr.open_array(store, mode="r")
+    return zarr.open_array(store, mode=mode)
 
 
 def _replace_dir(tmp, path):
@@ -517,7 +499,7 @@ def _sampled_min_cost(left, right, args, st, layout):
     shaping = dict(OFF, **{k: st[k] for k in ("prefilter", "prefilter_cap", "census_window")})
     rows = []
     for y in sample_rows(layout.height):
-        first, end = _taller(input_band((y, y + 1), layout), layout.height, args["window"])
+        first, end = input_band((y, y + 1), layout)
         a, b = left.rows(first, end), right.rows(first, end)
         raw = match_rows(a, b, dict(args, rows=np.array([y - first])), shaping)[2]
         rows.append(raw.min_cost)
@@ -549,8 +531,7 @@ def _run_passes(left, right, output, confidence, preview, layout, args, st, clie
                 stage["confidence"] = _create_store(work / "stage-confidence.zarr", shape,
                                                     rows, False)
         first_into = stage if two_pass else final
-        pass1 = [{"stripe": s, "band": _taller(input_band(s, layout), layout.height,
-                                               args["window"]),
+        pass1 = [{"stripe": s, "band": input_band(s, layout),
                   "left": left, "right": right, "kernel_args": args, "stages": st,
                   "confidence": confidence is not None,
                   "disparity": first_into["disparity"],

@@ -20,7 +20,7 @@ from csw.io import (
 from csw.matching import check_tau_use
 from csw.matching import match as match_pair
 from csw.tau import tau_label
-from csw.tiled import TILED_SUFFIXES, match_tiled, parse_size
+from csw.tiled import TILED_SUFFIXES, match_tiled, parse_size, too_big_for_whole
 
 from . import options as opt
 
@@ -74,8 +74,13 @@ def write_outputs(items):
     try:
         atomic_write_all(items)
     except OSError as exc:
-        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
-        raise click.ClickException(f"can't write{where}: {exc.strerror or exc}") from None
+        raise write_error(exc) from None
+
+
+def write_error(exc):
+    """The one-line error (exit 1) for an OSError while writing."""
+    where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+    return click.ClickException(f"can't write{where}: {exc.strerror or exc}")
 
 
 def summary_line(result, shape, stripes=None):
@@ -159,8 +164,6 @@ def use_stripes(left, right, output, confidence, memory_limit, cluster, settings
             (confidence is not None and confidence.suffix.lower() != ".pfm") or \
             any(Path(p).suffix.lower() in STRIPED_INPUTS for p in (left, right)):
         return True
-    from csw.tiled import too_big_for_whole
-
     with opt.library_errors("LEFT"):
         return too_big_for_whole(left, **settings)
 
@@ -175,8 +178,7 @@ def match_striped(left, right, output, confidence, preview, memory_limit, worker
                                  memory_limit=memory_limit, client=client, progress=True,
                                  **settings)
     except OSError as exc:
-        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
-        raise click.ClickException(f"can't write{where}: {exc.strerror or exc}") from None
+        raise write_error(exc) from None
     finally:
         if client is not None:
             from csw.distributed import close
