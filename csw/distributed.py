@@ -5,6 +5,7 @@ Each worker is a process with one task thread; Numba's threads are split so that
 workers together use the machine's cores once.
 """
 
+import logging
 import os
 
 
@@ -26,7 +27,10 @@ def local_client(workers):
     threads = max(1, (os.cpu_count() or 1) // workers)
     cluster = distributed.LocalCluster(
         n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-        dashboard_address="127.0.0.1:0", env={"NUMBA_NUM_THREADS": str(threads)})
+        dashboard_address="127.0.0.1:0", env={"NUMBA_NUM_THREADS": str(threads)},
+        # csw reports failures itself; Dask's warnings (tasks cancelled on Ctrl-C, a
+        # restarted worker) would only add lines to the user's terminal.
+        silence_logs=logging.ERROR)
     return distributed.Client(cluster)
 
 
