@@ -4,22 +4,16 @@ out.  A pair that fails is reported in the summary and the others go on.
 
 import csv
 import json
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .io import (
-    OUTPUT_SUFFIXES,
-    ImageError,
-    atomic_write,
-    read_image,
-    remove_temporaries,
-    write_disparity,
-)
-from .matching import match, options
-
-IMAGE_SUFFIXES = (".png", ".ppm", ".pgm", ".pnm", ".tif", ".tiff", ".bmp", ".jpg", ".jpeg")
+from .executor import progress_bar, run_tasks
+from .io.atomic import atomic_write, remove_temporaries
+from .io.formats import check_range, suffixes, write_disparity
+from .io.images import ImageError, read_image
+from .params import OptionError, resolve
+from .whole import match
 
 
 @dataclass(frozen=True)
@@ -37,12 +31,13 @@ def jobs_from_folders(left_dir, right_dir):
     A left image with no partner becomes a failed job, reported like any other."""
     left_dir, right_dir = Path(left_dir), Path(right_dir)
     jobs = []
-    for left in sorted(p for p in left_dir.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES):
+    images = suffixes("decoded")
+    for left in sorted(p for p in left_dir.iterdir() if p.suffix.lower() in images):
         right = right_dir / left.name
         problem = None if right.is_file() else f"no {left.name} in {right_dir}"
         jobs.append(Job(left.stem, left, right if problem is None else None, problem))
     if not jobs:
-        raise ValueError(f"{left_dir} holds no images ({', '.join(IMAGE_SUFFIXES)})")
+        raise ValueError(f"{left_dir} holds no images ({', '.join(images)})")
     return jobs
 
 
@@ -80,9 +75,10 @@ def check_names(jobs):
         seen[job.name] = job.left
 
 
-def run_job(job, output, **match_options):
-    """Match one pair and write its map; returns a summary entry (never raises for a bad
-    pair: the error is in the entry)."""
+def run_job(task, **match_options):
+    """Match one pair, a (Job, output path) task, and write its map; returns a summary
+    entry (never raises for a bad pair: the error is in the entry)."""
+    job, output = task
     entry = {"name": job.name, "left": str(job.left),
              "right": str(job.right) if job.right else None, "output": str(output)}
     start = time.perf_counter()
@@ -130,15 +126,18 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         The summary: ``counts`` (ok, skipped, failed), ``pairs`` (one entry each, in the
         jobs' order, with ``status`` and, for failures, ``error``) and ``options``.
     """
-    from tqdm import tqdm
-
-    if suffix not in OUTPUT_SUFFIXES:
-        raise ValueError(f"suffix must be one of {', '.join(OUTPUT_SUFFIXES)}, got {suffix!r}")
+    if suffix not in suffixes("whole"):
+        raise ValueError(f"suffix must be one of {', '.join(suffixes('whole'))}, got "
+                         f"{suffix!r}")
     out_dir = Path(out_dir)
     if not out_dir.is_dir():
         raise ValueError(f"{out_dir} is not a folder; create it first")
     check_names(jobs)
-    resolved = options(**match_options)  # unknown options fail before any work
+    resolved = resolve(**match_options)  # bad options fail before any work
+    try:
+        check_range(f"map{suffix}", resolved["dmax"])
+    except ValueError as exc:
+        raise OptionError("dmax", str(exc)) from None
     summary = Path(summary) if summary else out_dir / "summary.json"
     entries = {}
     todo = []
@@ -149,11 +148,11 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
                           "output": str(output), "status": "skipped"}
         else:
             todo.append((i, job, output))
-    bar = tqdm(total=len(jobs), initial=len(entries), desc="csw match", unit="pair",
-               file=sys.stderr, disable=not progress)
+    bar = progress_bar(len(jobs), "csw match", "pair", progress, initial=len(entries))
     try:
-        for i, entry in _run(todo, client, match_options):
-            entries[i] = entry
+        tasks = [(job, output) for _, job, output in todo]
+        for k, entry in run_tasks(run_job, tasks, client, **match_options):
+            entries[todo[k][0]] = entry
             bar.update()
     except KeyboardInterrupt:
         # What finished is complete on disk: say so, marked as interrupted, and stop.
@@ -167,24 +166,6 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     for _, _, output in todo:
         remove_temporaries(output)
     return write_summary(summary, [entries[i] for i in sorted(entries)], resolved)
-
-
-def _run(todo, client, match_options):
-    """(index, entry) for every (index, job, output), as they finish: here one after
-    another, or as tasks on a Dask client."""
-    if client is None:
-        for i, job, output in todo:
-            yield i, run_job(job, output, **match_options)
-        return
-    from dask.distributed import as_completed
-
-    futures = {client.submit(run_job, job, output, pure=False, **match_options): i
-               for i, job, output in todo}
-    try:
-        for future in as_completed(futures):
-            yield futures[future], future.result()
-    finally:
-        client.cancel(list(futures))
 
 
 def write_summary(path, entries, resolved, interrupted=False):

@@ -1,10 +1,12 @@
 """Dask clusters for csw: a local one started for a batch, or an existing one by address.
 
-Dask is an optional extra (``pip install 'csw[dask]'``); nothing else in csw imports it.
+Dask is an optional extra (``pip install 'csw[dask]'``); only this module and the
+executor (csw.executor, given a client) import it.
 Each worker is a process with one task thread; Numba's threads are split so that the
 workers together use the machine's cores once.
 """
 
+import contextlib
 import logging
 import os
 
@@ -51,3 +53,27 @@ def close(client):
     client.close()
     if cluster is not None:
         cluster.close()
+
+
+@contextlib.contextmanager
+def cluster(workers=None, scheduler=None):
+    """A Client for the duration of a ``with``: None with neither argument (run here), a
+    local cluster of ``workers`` processes, or the scheduler at address ``scheduler``;
+    closed (the local cluster with it) at the end.  ValueError for both at once."""
+    if workers is not None and scheduler is not None:
+        raise ValueError("give workers (a cluster on this machine) or a scheduler address "
+                         "(an existing one), not both")
+    if workers is None and scheduler is None:
+        yield None
+        return
+    from .params import OptionError
+
+    try:
+        client = remote_client(scheduler) if scheduler is not None else local_client(workers)
+    except ValueError as exc:
+        raise OptionError("scheduler" if scheduler is not None else "workers", str(exc)) \
+            from None
+    try:
+        yield client
+    finally:
+        close(client)

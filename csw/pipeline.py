@@ -1,5 +1,5 @@
-"""The matching pipeline around the CSW kernels; every stage is an option and off in the
-paper's contract:
+"""The matching pipeline around the CSW kernels; every stage is an option (csw.params holds
+their defaults and allowed values) and off in the paper's contract:
 
   prefilter          "none", or "xsobel": StereoBM's x-Sobel response clipped to
                      +-prefilter_cap (offset by the cap into 0..2*cap), which absorbs
@@ -29,15 +29,6 @@ import numpy as np
 from . import kernels
 from .kernels.filters import fill_background, lr_consistent, median_valid, speckle_mask
 
-PREFILTERS = ("none", "xsobel")
-SUBPIXEL = ("none", "parabola", "linear")
-FILLS = ("none", "background")
-
-# The stages' options with their "off" values: the paper's contract.
-OFF = {"prefilter": "none", "prefilter_cap": 31, "census_window": 5, "lr_check": None,
-       "uniqueness_ratio": None, "texture_threshold": None, "subpixel": "none",
-       "speckle_size": 0, "speckle_range": 1.0, "median": 0, "fill": "none"}
-
 
 def xsobel(image, cap):
     """StereoBM's prefilter: the 3x3 x-Sobel response, clipped to [-cap, cap] and offset
@@ -57,25 +48,6 @@ def box_sum(values, window):
     height, width = values.shape
     return (c[window:window + height, window:window + width] - c[:height, window:window + width]
             - c[window:window + height, :width] + c[:height, :width])
-
-
-def check(stages):
-    """ValueError, saying how to fix it, for a stage option out of range."""
-    if stages["prefilter"] not in PREFILTERS:
-        raise ValueError(f"prefilter must be one of {', '.join(PREFILTERS)}")
-    if not 1 <= int(stages["prefilter_cap"]) <= 63:
-        raise ValueError("prefilter_cap must be from 1 to 63 (StereoBM's range)")
-    if stages["subpixel"] not in SUBPIXEL:
-        raise ValueError(f"subpixel must be one of {', '.join(SUBPIXEL)}")
-    if stages["fill"] not in FILLS:
-        raise ValueError(f"fill must be one of {', '.join(FILLS)}")
-    for name, low in (("lr_check", 0), ("uniqueness_ratio", 0), ("texture_threshold", 0)):
-        if stages[name] is not None and not low <= stages[name] <= 10**9:
-            raise ValueError(f"{name} must be a whole number >= {low}, or off")
-    if stages["median"] not in (0, 3, 5, 7):
-        raise ValueError("median must be 0 (off), 3, 5 or 7")
-    if stages["speckle_size"] < 0 or stages["speckle_range"] < 0:
-        raise ValueError("speckle_size and speckle_range must be >= 0")
 
 
 def needs_extras(stages):
@@ -130,7 +102,8 @@ def run(left, right, kernel_args, stages, confidence=False):
     the kernels' MatchResult).
 
     left, right: uint8/uint16 (H, W).  kernel_args: csw.kernels.match's arguments (engine,
-    window, range, cost, CSW).  stages: OFF's keys (see the module's docstring).
+    window, range, cost, CSW).  stages: checked stage options (csw.params.stages of a
+    resolved option set; see the module's docstring).
     confidence: compute the second-best costs for the confidence map even when no stage
     needs them (else it is 0 where they are not computed).
     """
@@ -170,7 +143,6 @@ def match_rows(left, right, kernel_args, stages, confidence=False):
     """The row-local stages: costs, CSW, the validity checks and subpixel.  Returns
     (disparity float32 (H, W) NaN invalid, confidence float32 (H, W), MatchResult); row y
     depends only on input rows y +- :func:`row_overlap`."""
-    check(stages)
     a, b = prefiltered(left, right, stages)
     raw = kernels.match(a, b, census_window=stages["census_window"],
                         extras=confidence or needs_extras(stages),

@@ -1,17 +1,17 @@
-"""The ``csw`` command group: a thin group, one module per command."""
+"""The ``csw`` command group: a thin group, one module per command in commands/."""
 
 import sys
 
 import click
 
 from . import __version__
-from .bench import bench
-from .datasets_cmd import datasets
-from .hist import hist
-from .match import match
-from .score_cmd import score_cmd
-from .sweep import sweep
-from .synth_cmd import synth
+from .commands.bench import bench
+from .commands.datasets import datasets
+from .commands.hist import hist
+from .commands.match import match
+from .commands.score import score
+from .commands.sweep import sweep
+from .commands.synth import synth
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -26,13 +26,8 @@ def cli():
     """
 
 
-cli.add_command(bench)
-cli.add_command(datasets)
-cli.add_command(hist)
-cli.add_command(match)
-cli.add_command(score_cmd, name="score")
-cli.add_command(sweep)
-cli.add_command(synth)
+for command in (bench, datasets, hist, match, score, sweep, synth):
+    cli.add_command(command)
 
 
 def main(args=None):

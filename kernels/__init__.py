@@ -1,7 +1,7 @@
 """csw's Numba kernels: window matching with and without the Constrained Sliding Window.
 
 Installed as ``csw.kernels`` (the folder is ``kernels/`` in the source tree). Engines are
-siblings that compute one contract (see README, "The matching contract"):
+siblings that compute one contract (see docs/engines.md, "The matching contract"):
   window  full w x w sums per candidate, the paper's method (.window)
   fast    running sums, O(1) per (pixel, disparity), after OpenCV's StereoBM (.fast)
 
@@ -10,11 +10,11 @@ is the entry with the user-facing defaults.
 """
 
 from . import contract
-from .contract import COSTS, INVALID, RULES, MatchResult, candidate_count
+from .contract import COSTS, ENGINE_NAMES, INVALID, RULES, MatchResult, candidate_count
 from .fast import match_fast
 from .window import match_window
 
-ENGINES = {"window": match_window, "fast": match_fast}
+ENGINES = dict(zip(ENGINE_NAMES, (match_fast, match_window), strict=True))
 
 
 def match(left, right, *, engine, **options):

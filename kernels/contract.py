@@ -1,6 +1,6 @@
 """The matching contract shared by every engine: cost codes, input checks, results.
 
-Every engine in this package computes exactly the same thing (see README, "The matching
+Every engine in this package computes exactly the same thing (see docs/engines.md, "The matching
 contract"). This module holds the part they share: the public names of the costs, the
 validation that runs once at the door, and the result type.
 """
@@ -14,6 +14,9 @@ import numpy as np
 from numba.core import types
 from numba.extending import intrinsic, overload
 
+# The engines (kernels/__init__.py maps each name to its entry).
+ENGINE_NAMES = ("fast", "window")
+
 SAD, SSD, SHD, CENSUS = 0, 1, 2, 3
 COSTS = {"sad": SAD, "ssd": SSD, "shd": SHD, "census": CENSUS}
 # Census: each pixel becomes a code with one bit per neighbour of its census window
@@ -23,7 +26,7 @@ DEFAULT_CENSUS_WINDOW = 5
 MAX_CENSUS_BITS = 64
 
 # Rules that decide which CSW matches claim their right pixel, and which claims bind
-# (see README, "CSW rules"):
+# (see docs/engines.md, "CSW rules"):
 #   literal  the paper's: claim when m <= tau; every claim blocks later pixels.
 #   unique   claim when m <= tau and the match is distinct (the best cost beats every
 #            candidate at least 2 away from it by `uniqueness` percent); a claim does not
@@ -127,15 +130,7 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
     """
     left = _as_image("left", left)
     right = _as_image("right", right)
-    if left.shape != right.shape:
-        raise ValueError(
-            f"left and right images differ in size: {left.shape[1]}x{left.shape[0]} vs "
-            f"{right.shape[1]}x{right.shape[0]}; stereo pairs must be rectified to one size"
-        )
-    if left.dtype != right.dtype:
-        raise ValueError(
-            f"left is {left.dtype} but right is {right.dtype}; give both the same bit depth"
-        )
+    check_pair(left.shape, left.dtype, right.shape, right.dtype)
     height, width = left.shape
     if isinstance(window, bool) or int(window) != window:
         raise ValueError(f"window must be an odd whole number, got {window!r}")
@@ -191,6 +186,20 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
     setup = Setup(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule],
                   int(uniqueness), slack, bool(extras), bool(right_map))
     return left, right, setup, rows
+
+
+def check_pair(left_shape, left_dtype, right_shape, right_dtype):
+    """ValueError unless the two images have one size and one pixel type."""
+    if tuple(left_shape) != tuple(right_shape):
+        raise ValueError(
+            f"left and right images differ in size: {left_shape[1]}x{left_shape[0]} vs "
+            f"{right_shape[1]}x{right_shape[0]}; stereo pairs must be rectified to one size"
+        )
+    if np.dtype(left_dtype) != np.dtype(right_dtype):
+        raise ValueError(
+            f"left is {np.dtype(left_dtype)} but right is {np.dtype(right_dtype)}; give both "
+            "the same bit depth"
+        )
 
 
 def resolve_uniqueness(cost, uniqueness):

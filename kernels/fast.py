@@ -33,6 +33,7 @@ from numba import njit, prange
 
 from .config import INLINE, PARALLEL, SERIAL
 from .contract import (
+    DEFAULT_CENSUS_WINDOW,
     INVALID,
     RULE_UNIQUE,
     SAD,
@@ -390,7 +391,7 @@ def stripe_bounds(height, window, threads, rows):
 
 def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                rule="literal", uniqueness=None, slack=None, rows=None, threads=None,
-               census_window=5, extras=False, right_map=False):
+               census_window=DEFAULT_CENSUS_WINDOW, extras=False, right_map=False):
     """Match a rectified pair with running sums (same contract as match_window).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.

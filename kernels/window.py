@@ -16,6 +16,7 @@ from .census import census_transform
 from .config import INLINE, PARALLEL, SERIAL
 from .contract import (
     CENSUS,
+    DEFAULT_CENSUS_WINDOW,
     INVALID,
     RULE_UNIQUE,
     SAD,
@@ -201,14 +202,14 @@ def result(disp, min_cost, evaluated, plain, s, maps):
 
 def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                  rule="literal", uniqueness=None, slack=None, rows=None, threads=None,
-                 census_window=5, extras=False, right_map=False):
-    """Match a rectified pair with full window sums (see the README's contract).
+                 census_window=DEFAULT_CENSUS_WINDOW, extras=False, right_map=False):
+    """Match a rectified pair with full window sums (the contract: docs/engines.md).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
     cost: "sad", "ssd", "shd" or "census" (census_window x census_window census codes,
         compared with SHD).
     rule, uniqueness: the CSW rule ("literal" or "unique") and the unique rule's margin
-        in percent (see README, "CSW rules").  slack: override the rule's binding (a
+        in percent (see docs/engines.md, "CSW rules").  slack: override the rule's binding (a
         claim by x' blocks x only when x - x' > slack); for studies of the rule.
     rows: optional int64 (n,) ascending row indices; then the maps are (n, W).
     extras: also return the second-best and neighbour costs; right_map: the right image's

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from csw import datasets as D
 from csw import kernels
-from csw.scoring import score
-from csw.synth import render
+from csw.data import datasets as D
+from csw.data.synth import render
+from csw.eval.scoring import score
 from report_common import cpu_name, now_utc, peak_memory_mb
 
 try:

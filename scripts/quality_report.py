@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 
 import csw
-from csw import datasets as D
+from csw.data import datasets as D
+from csw.data.synth import render
+from csw.eval.scoring import filled_bad, score
 from csw.io import as_float_disparity, colorize
 from csw.kernels.contract import thread_count
-from csw.scoring import filled_bad, score
-from csw.synth import render
 from report_common import cpu_name, fmt, now_utc, peak_memory_mb
 
 try:
@@ -125,7 +125,7 @@ def best_sgbm_block():
 
 
 def picture(path, name, result, keys):
-    from csw.plots import pyplot, save_figure
+    from csw.eval.plots import pyplot, save_figure
 
     plt = pyplot()
     panels = [("ground truth", result["gt"])] + [(k, result["maps"][k]) for k in keys]

@@ -58,8 +58,8 @@ print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)
 def peak_memory_mb(options=()):
     """Peak resident memory (MB) of `csw match OPTIONS` on the 1080p synthetic pair,
     d 0..255, all threads, in a process of its own."""
+    from csw.data.synth import render
     from csw.io import write_png
-    from csw.synth import render
 
     left, right, _, _ = render(1920, 1080, dmax=255, seed=0)
     with tempfile.TemporaryDirectory() as tmp:

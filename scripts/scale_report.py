@@ -28,11 +28,11 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import csw  # noqa: E402
+from csw.data.synth import render, write_tiff_scene  # noqa: E402
 from csw.distributed import close, local_client  # noqa: E402
 from csw.io import write_disparity, write_png  # noqa: E402
-from csw.matching import options, stages  # noqa: E402
+from csw.params import resolve, stages  # noqa: E402
 from csw.pipeline import filter_overlap  # noqa: E402
-from csw.synth import render, write_tiff_scene  # noqa: E402
 from csw.tiled import DEFAULT_MEMORY_LIMIT, match_tiled  # noqa: E402
 from report_common import cpu_name, now_utc  # noqa: E402
 
@@ -279,7 +279,7 @@ of map each side.
                        f"{s:.3f}", f"{r:.2f}x") for p, label, n, share, fo, s, r
                       in stripes]))
     worst = max(r for *_, r in stripes)
-    speckle_rows = filter_overlap(stages(options()))
+    speckle_rows = filter_overlap(stages(resolve()))
     default_accurate = next(r for p, label, *_, r in stripes
                             if p == "accurate" and label.startswith("stripes, default"))
     out.append(f"""

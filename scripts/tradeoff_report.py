@@ -10,10 +10,11 @@ from pathlib import Path
 
 import numpy as np
 
-from csw import datasets as D
-from csw import kernels, plots
-from csw.scoring import bad1_all
-from csw.sweep import DEFAULT_TAUS, sweep_rows
+from csw import kernels
+from csw.data import datasets as D
+from csw.eval import plots
+from csw.eval.scoring import bad1_all
+from csw.eval.sweep import DEFAULT_TAUS, sweep_rows
 from csw.tau import paper_tau, parse_sweep
 from report_common import command, fmt, now_utc
 

@@ -3,8 +3,8 @@ import os
 import pytest
 from hypothesis import settings
 
+from csw.data.synth import render
 from csw.io import write_png
-from csw.synth import render
 
 # Property tests: a fixed example sequence in CI (CI=true), so a run is repeatable;
 # fresh examples on developers' machines; CSW_HYPOTHESIS_PROFILE=thorough for a long hunt.

@@ -3,8 +3,8 @@ layout tests need no download: Middlebury 2014 scene folders and KITTI training 
 
 import numpy as np
 
+from csw.data.synth import render
 from csw.io import write_float_pfm, write_png
-from csw.synth import render
 
 
 def middlebury2014(folder, seed=1, ndisp=24, mask=True, size=(96, 64)):

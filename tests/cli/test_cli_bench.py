@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from csw import datasets as D
 from csw import kernels
-from csw.scoring import score
+from csw.data import datasets as D
+from csw.eval.scoring import score
 from csw.tau import paper_tau
 from csw_cli.main import cli
 

@@ -99,7 +99,7 @@ BAD_INPUTS = [
     (["{left}", "{right}", "--window", "0"], 2, "odd"),
     (["{left}", "{right}", "--window", "101"], 2, "larger than the image"),
     (["{left}", "{right}", "--dmin", "5", "--dmax", "2"], 2, "must not exceed"),
-    (["{left}", "{right}", "--dmin", "-1"], 2, "x>=0"),
+    (["{left}", "{right}", "--dmin", "-1"], 2, ">= 0"),
     (["{left}", "{right}", "--dmax", "96"], 2, "less than the image width"),
     (["{left}", "{right}", "-o", "{tmp}/d.jpg"], 2, "unknown extension"),
     (["{left}", "{right}", "-o", "{tmp}/nowhere/d.pfm"], 2, "does not exist"),
@@ -149,7 +149,7 @@ def test_png_output_refuses_disparities_it_cannot_hold(tmp_path):
 
 
 def test_failed_write_leaves_no_partial_file(pair_files, tmp_path, monkeypatch):
-    import csw.io as io
+    import csw.io.formats as io
 
     def broken(tmp):
         with open(tmp, "wb") as f:

@@ -16,8 +16,8 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from csw.eval.scoring import score
 from csw.io import read_disparity, write_float_pfm, write_png
-from csw.scoring import score
 from csw_cli.main import cli
 
 

@@ -5,9 +5,9 @@ import json
 import pytest
 from click.testing import CliRunner
 
-from csw import datasets as D
 from csw import kernels
-from csw.scoring import bad1_all
+from csw.data import datasets as D
+from csw.eval.scoring import bad1_all
 from csw.tau import paper_tau
 from csw_cli.main import cli
 

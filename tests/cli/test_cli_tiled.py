@@ -6,8 +6,8 @@ import pytest
 import tifffile
 from click.testing import CliRunner
 
+from csw.data.synth import render
 from csw.io import read_disparity, read_pfm, write_png
-from csw.synth import render
 from csw_cli.main import cli
 
 DMAX = 24
@@ -58,7 +58,8 @@ def test_tiff_and_zarr_outputs_need_no_flag(tmp_path, pair):
 @pytest.mark.parametrize("args, message", [
     (["--memory-limit", "200kB"], "below what one stripe needs"),
     (["--memory-limit", "lots"], "a size such as 512MB"),
-    (["--memory-limit", "3MB", "--cost-map", "m.pfm"], "--cost-map is not written"),
+    (["--memory-limit", "3MB", "--cost-map", "m.pfm"],
+     "--cost-map: the cost map is not written"),
 ])
 def test_bad_stripe_options_are_one_line_errors(tmp_path, pair, args, message):
     (tmp_path / "out").mkdir()
@@ -104,10 +105,11 @@ def test_synth_writes_the_same_scene_as_tiled_tiffs(tmp_path):
 
 
 def test_a_pair_too_big_for_the_default_limit_is_striped_unasked(tmp_path, pair, monkeypatch):
-    import csw.tiled
+    import csw.tiled.plan
 
     invoke("match", *pair, "-o", tmp_path / "whole.pfm", "--dmax", DMAX)
-    monkeypatch.setattr(csw.tiled, "DEFAULT_MEMORY_LIMIT", 3 * 10**6)  # as if the pair were big
+    # As if the pair were big:
+    monkeypatch.setattr(csw.tiled.plan, "DEFAULT_MEMORY_LIMIT", 3 * 10**6)
     result = invoke("match", *pair, "-o", tmp_path / "d.pfm", "--dmax", DMAX)
     assert result.exit_code == 0 and " stripe(s))" in result.output
     assert "1 stripe(s)" not in result.output

@@ -7,8 +7,8 @@ oracle is too slow for full-size real images, so here the window engine stands i
 import numpy as np
 import pytest
 
-from csw import datasets as D
 from csw import kernels
+from csw.data import datasets as D
 from csw.tau import paper_tau
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from csw import kernels
-from csw.synth import render
+from csw.data.synth import render
 from oracle import oracle_match
 
 ENGINES = sorted(kernels.ENGINES)

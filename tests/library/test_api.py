@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 import csw
-from csw import kernels, pipeline
-from csw.defaults import MATCH, PRESETS
+from csw import kernels, params, pipeline
 from csw.io import luma
+from csw.params import DEFAULTS as MATCH
+from csw.params import PRESETS
 
 
 def test_defaults_are_the_table_and_its_preset(small_scene):
@@ -14,10 +15,10 @@ def test_defaults_are_the_table_and_its_preset(small_scene):
     result = csw.match(left, right)
     chosen = {**MATCH, **PRESETS[MATCH["preset"]]}
     for key in ("preset", "engine", "cost", "window", "dmin", "dmax", "csw", "csw_rule",
-                *pipeline.OFF):
+                *params.OFF):
         assert result.settings[key] == chosen[key], key
-    disp, _, raw = pipeline.run(left, right, csw.matching.kernel_args(dict(chosen, tau=-1)),
-                                {k: chosen[k] for k in pipeline.OFF})
+    disp, _, raw = pipeline.run(left, right, params.kernel_args(dict(chosen, tau=-1)),
+                                {k: chosen[k] for k in params.OFF})
     np.testing.assert_array_equal(result.disparity, disp)
     np.testing.assert_array_equal(result.min_cost, raw.min_cost)
     assert result.valid.dtype == bool and result.disparity.dtype == np.float32
@@ -91,7 +92,7 @@ def test_warm_up_compiles_what_the_match_runs(cost, dtype):
 
     rng = np.random.default_rng(0)
     left = rng.integers(0, 200, (40, 60)).astype(dtype)
-    csw.matching.warm_up("fast", cost, 9, dtype)
+    csw.prepare.warm_up("fast", cost, 9, dtype)
     before = len(fast._fast_driver.signatures)
     csw.match(left, np.roll(left, 2, 1), dmax=8, cost=cost, window=9)
     assert len(fast._fast_driver.signatures) == before

@@ -7,8 +7,8 @@ import pytest
 
 import csw
 import csw.batch
+from csw.data.synth import render
 from csw.io import read_disparity, write_png
-from csw.synth import render
 
 
 @pytest.fixture
@@ -95,11 +95,11 @@ def test_an_interrupted_batch_says_what_finished(folders, monkeypatch):
     calls = []
     real = csw.batch.run_job
 
-    def run_then_stop(job, output, **options):
-        calls.append(job.name)
+    def run_then_stop(task, **options):
+        calls.append(task[0].name)
         if len(calls) == 2:
             raise KeyboardInterrupt
-        return real(job, output, **options)
+        return real(task, **options)
 
     monkeypatch.setattr(csw.batch, "run_job", run_then_stop)
     jobs = csw.jobs_from_folders(root / "left", root / "right")

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from csw import datasets as D
+from csw.data import datasets as D
 from csw.io import read_image
 
 # Largest ground-truth disparity in pixels, from the stored maxima in SOURCES.md divided

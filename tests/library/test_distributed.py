@@ -11,8 +11,8 @@ import pytest
 from click.testing import CliRunner
 
 import csw
+from csw.data.synth import render
 from csw.io import read_disparity, write_png
-from csw.synth import render
 
 distributed = pytest.importorskip("dask.distributed")
 

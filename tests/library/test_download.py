@@ -9,7 +9,7 @@ import zipfile
 import numpy as np
 import pytest
 
-from csw import datasets as D
+from csw.data import datasets as D
 
 
 @pytest.fixture

@@ -5,8 +5,8 @@ import pytest
 from layout_fixtures import kitti, middlebury2014
 
 import csw
-from csw import layouts
-from csw.datasets import DataError
+from csw.data import layouts
+from csw.data.datasets import DataError
 
 
 def test_middlebury2014_scene(tmp_path):

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 import csw
 import oracle
-from csw import kernels, pipeline
+from csw import kernels, params, pipeline
 from csw.kernels import filters
 
 
@@ -54,7 +54,7 @@ def test_checks_and_subpixel_equal_the_oracle(seed, engine, cost, fit, lr, ratio
     right[rng.random(right.shape) < 0.2] = 3
     args = dict(engine=engine, window=3, dmin=0, dmax=6, cost=cost, csw=csw_on,
                 tau=10**9 if csw_on else -1, rule="unique")
-    stages = dict(pipeline.OFF, lr_check=lr, uniqueness_ratio=ratio, subpixel=fit)
+    stages = dict(params.OFF, lr_check=lr, uniqueness_ratio=ratio, subpixel=fit)
     disp, confidence, raw = pipeline.run(left, right, args, stages)
     want_disp, mins, _, more = oracle.oracle_match(
         left, right, 3, 0, 6, cost, csw_on, args["tau"], rule="unique", extras=True)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from csw.scoring import score
+from csw.eval.scoring import score
 
 
 def test_bad_thresholds_invalid_mae_rms_by_hand():

@@ -13,8 +13,11 @@ import zarr
 
 import csw
 import csw.tiled as tiled
+from csw.data.synth import render, write_tiff_scene
 from csw.io import ImageError, colorize, read_disparity, read_image, read_pfm, write_png
-from csw.synth import render, write_tiff_scene
+from csw.io.sources import open_source
+from csw.tiled import plan as tiled_plan
+from csw.tiled import tasks as tiled_tasks
 
 WIDTH, HEIGHT, DMAX = 160, 101, 24  # an odd height: the last stripe is short
 
@@ -75,8 +78,8 @@ def test_one_row_less_of_input_overlap_would_differ(tmp_path, scene, monkeypatch
     """The overlap is what makes stripes exact: one row less and some pixel changes."""
     left, right, _, nonocc = scene
     whole = as_stored(csw.match(left, right, dmax=DMAX, **options).disparity)
-    original = tiled.row_overlap
-    monkeypatch.setattr(tiled, "row_overlap", lambda *a: original(*a) - 1)
+    original = tiled_plan.row_overlap
+    monkeypatch.setattr(tiled_plan, "row_overlap", lambda *a: original(*a) - 1)
     _, disp, _ = tiled_maps(tmp_path, left, right, occluded_row(nonocc), **options)
     assert not np.array_equal(disp, whole)
 
@@ -84,12 +87,12 @@ def test_one_row_less_of_input_overlap_would_differ(tmp_path, scene, monkeypatch
 def filter_in_stripes(tmp_path, disp, stages, rows, overlap):
     """The second pass alone: ``disp`` in a stage store, filtered stripe by stripe."""
     shape = disp.shape
-    stage = tiled._create_store(tmp_path / "stage.zarr", shape, rows, False)
-    final = tiled._create_store(tmp_path / "final.zarr", shape, rows, False)
+    stage = tiled_tasks.create_store(tmp_path / "stage.zarr", shape, rows, False)
+    final = tiled_tasks.create_store(tmp_path / "final.zarr", shape, rows, False)
     zarr.open_array(stage, mode="r+")[:] = disp
     layout = tiled.Plan(shape[0], shape[1], rows, 0, overlap, 0)
     for stripe in layout.stripes:
-        tiled.filter_stripe({"stripe": stripe, "band": tiled.map_band(stripe, layout),
+        tiled_tasks.filter_stripe({"stripe": stripe, "band": tiled_plan.map_band(stripe, layout),
                              "stages": stages, "stage": stage, "stage_confidence": None,
                              "disparity": final, "confidence_store": None})
     return zarr.open_array(final, mode="r")[:]
@@ -103,7 +106,8 @@ def test_the_filter_overlap_is_exactly_enough(tmp_path, stages, tight):
     filter keeps the first and removes the second only with S - 1 rows of overlap; a
     random map does the same for the median.  (On the segments the 3 x 3 median changes
     nothing, so together they are only checked for exactness.)"""
-    from csw.pipeline import OFF, filter_map, filter_overlap
+    from csw.params import OFF
+    from csw.pipeline import filter_map, filter_overlap
 
     stages = dict(OFF, **stages)
     rng = np.random.default_rng(0)
@@ -211,7 +215,7 @@ def test_inputs_read_by_rows_equal_the_decoded_image(tmp_path, scene, layout):
         want_left, want_right = read_image_png(tmp_path, rgb(left), rgb(right))
     else:
         want_left, want_right = left, right
-    source = tiled.open_source(paths[0])
+    source = open_source(paths[0])
     np.testing.assert_array_equal(source.rows(0, HEIGHT), want_left)
     np.testing.assert_array_equal(source.rows(37, 52), want_left[37:52])
     tiled.match_tiled(*paths, tmp_path / "d.npy", stripe_rows=20, dmax=DMAX)
@@ -269,11 +273,11 @@ def test_a_memory_limit_below_one_stripe_is_refused(tmp_path, scene):
 
 
 def test_stripes_grow_with_the_memory_limit():
-    options = csw.matching.options(dmax=64)
-    heights = [tiled.plan(20000, 20000, options, tiled.parse_size(limit), threads=2)
+    options = csw.params.resolve(dmax=64)
+    heights = [tiled_plan.plan(20000, 20000, options, tiled.parse_size(limit), threads=2)
                .stripe_rows for limit in ("256MiB", "512MiB", "1GiB", "2GiB")]
     assert heights == sorted(heights) and heights[0] < heights[-1] < 20000
-    whole = tiled.plan(500, 400, options, tiled.parse_size("512MiB"), threads=2)
+    whole = tiled_plan.plan(500, 400, options, tiled.parse_size("512MiB"), threads=2)
     assert whole.stripes == [(0, 500)]
 
 
@@ -293,8 +297,8 @@ def test_memory_follows_the_stripe_not_the_image(tmp_path):
         write_tiff_scene(tmp_path / f"h{height}", 4000, height, dmax=32, seed=2, processes=1)
     write_tiff_scene(tmp_path / "small", 200, 60, dmax=32, seed=2, processes=1)
     limit, libraries = 64 * 2**20, 32 * 2**20
-    options = csw.matching.options(dmax=32)
-    assert tiled.plan(1000, 4000, options, stripe_rows=1000).bytes_per_stripe > 3 * limit
+    options = csw.params.resolve(dmax=32)
+    assert tiled_plan.plan(1000, 4000, options, stripe_rows=1000).bytes_per_stripe > 3 * limit
     script = textwrap.dedent(f"""
         import sys, csw.tiled as t
         def run(scene):

@@ -2,10 +2,8 @@
 
 import click
 
-from csw.datasets import DATASETS, SYNTHETIC, SYNTHETIC_DMAX, SYNTHETIC_SIZE, is_local
-
-from . import options as opt
-from .report import emit
+from .. import options as opt
+from ..report import emit
 
 COLUMNS = [("name", "Dataset", 0), ("size", "Size", 0), ("range", "Disparities", 0),
            ("gt_scale", "GT scale", 0), ("masks", "Masks", 0), ("local", "Local", 0),
@@ -21,6 +19,8 @@ def datasets(fmt, data_dir):
     Files are looked up in --data-dir / $CSW_DATA_DIR, then the user cache; missing ones
     are downloaded from the official Middlebury URLs when a command needs them.
     """
+    from csw.data.datasets import DATASETS, SYNTHETIC, SYNTHETIC_DMAX, SYNTHETIC_SIZE, is_local
+
     width, height = SYNTHETIC_SIZE
     rows = [{"name": SYNTHETIC, "size": f"{width}x{height}", "range": f"0..{SYNTHETIC_DMAX}",
              "dmin": 0, "dmax": SYNTHETIC_DMAX, "gt_scale": 1, "masks": "nonocc",

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..io import ImageError, read_disparity, read_image
 from .datasets import DataError, Pair, check_sizes, region_masks
-from .io import ImageError, read_disparity, read_image
 
 KITTI_DMAX = 255
 MIDDLEBURY_GT = ("disp0.pfm", "disp0GT.pfm")
@@ -169,3 +169,13 @@ def find_scene(path, name=None):
         raise DataError(f"{path} holds {len(scenes)} scenes; choose one with --scene, or "
                         "score a folder of maps")
     return scenes[0]
+
+
+def map_for(folder, scene):
+    """The map for ``scene`` in a folder of maps (as a batch writes them): SCENE.pfm,
+    .npy or .png, the first found; None if there is none."""
+    from ..io.formats import suffixes
+
+    found = [Path(folder) / f"{scene}{s}" for s in suffixes("whole")
+             if (Path(folder) / f"{scene}{s}").is_file()]
+    return found[0] if found else None

@@ -2,15 +2,12 @@
 
 import click
 
-from csw import plots
-from csw.defaults import PRESETS
-from csw.pipeline import OFF
-from csw.sweep import DEFAULT_TAUS, sweep_rows
+from csw import params
+from csw.eval.sweep import DEFAULT_TAUS
 from csw.tau import parse_sweep
 
-from . import options as opt
-from .match import check_output
-from .report import emit
+from .. import options as opt
+from ..report import emit
 
 COLUMNS = [("dataset", "Image", 0), ("algorithm", "Algorithm", 0), ("tau_label", "τ", 0),
            ("tau", "τ value", 0), ("work_saved", "Work saved (%)", 1),
@@ -40,28 +37,28 @@ def parse_ints(ctx, param, value):
 @click.command(short_help="Sweep tau and CSW rules: work saved against bad-1.")
 @opt.dataset_option(required=False)
 @opt.dataset_dir_option
-@opt.cost_option()
-@opt.rule_option(multiple=True, default="literal,unique")
+@opt.option("cost", default=params.DEFAULTS["cost"])
+@opt.option("csw_rule", multiple=True, default="literal,unique")
 @click.option("--tau-range", "taus", default=DEFAULT_TAUS, show_default=True,
               callback=parse_taus,
               help="Taus: numbers, Nx (N times the auto tau), a:b:step, none "
                    "(at most 1000 in all).")
 @click.option("--uniqueness", "uniquenesses", default=None, callback=parse_ints,
               help="Comma-separated uniqueness percentages for the unique rule "
-                   "[default: 12; 25 for SSD].")
-@opt.window_option()
+                   f"[default: {params.UNIQUENESS_TEXT}].")
+@opt.option("window", short="-w", default=params.DEFAULTS["window"])
 @opt.dataset_dmax_option
-@opt.threads_option
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False),
+@opt.option("threads", short="-j")
+@click.option("--plot", type=click.Path(dir_okay=False),
               help="Also write the curves as a PNG (one dataset only; needs matplotlib).")
 @opt.format_option
 @opt.data_dir_option
 @opt.download_option
 @opt.verify_option
-@opt.stage_options
+@opt.stage_options(params.EXPERIMENT_PRESET)
 @click.pass_context
-def sweep(ctx, datasets, dataset_dirs, cost, rules, taus, uniquenesses, window, dmax, threads,
-          plot_path, fmt, data_dir, download, verify, **stage_values):
+def sweep(ctx, datasets, dataset_dirs, cost, csw_rules, taus, uniquenesses, window, dmax,
+          threads, plot, fmt, data_dir, download, verify, **stage_values):
     """Run CSW over a range of tau for each rule and report work saved against bad-1.
 
     Results are the same with either engine; the sweep uses the fast one.
@@ -72,18 +69,20 @@ def sweep(ctx, datasets, dataset_dirs, cost, rules, taus, uniquenesses, window, 
       csw sweep -d cones --csw-rule unique --uniqueness 8,12,20 --tau-range 1x,3x,none
       csw sweep -d teddy --tau-range 200:1200:200 --plot teddy.png
     """
-    plot_path = check_output(plot_path, (".png",), "--plot")
-    given = opt.given(ctx, opt.STAGE_NAMES)
-    stages = {k: PRESETS[given.pop("preset", "raw")][k] for k in OFF}
-    stages.update(given)
-    if plot_path and len(datasets) + len(dataset_dirs) != 1:
+    from csw import sweep_rows
+    from csw.files import check_outputs
+
+    with opt.library_errors():
+        check_outputs({}, {"plot": plot})
+        stages = params.experiment_stages(**opt.given(ctx, ["preset", *params.OFF]))
+    if plot and len(datasets) + len(dataset_dirs) != 1:
         raise click.UsageError("--plot draws one dataset; give a single --dataset")
     rows, names = [], []
     for pair in opt.pairs(datasets, dataset_dirs, data_dir, download, verify):
         top = pair.dmax if dmax is None else dmax
         names.append(pair.name)
         with opt.library_errors():
-            rows += sweep_rows(pair, cost=cost, rules=rules, taus=taus,
+            rows += sweep_rows(pair, cost=cost, rules=csw_rules, taus=taus,
                                uniquenesses=uniquenesses, window=window, dmax=top,
                                threads=threads, stages=stages,
                                progress=lambda step: click.echo(f"sweep: {step}", err=True))
@@ -91,9 +90,11 @@ def sweep(ctx, datasets, dataset_dirs, cost, rules, taus, uniquenesses, window, 
                "costs skipped) against bad-1 over all known ground truth; Nx = N times the "
                "auto tau (the paper's histogram rule), none = no cost threshold.")
     emit(rows, COLUMNS, fmt, caption)
-    if plot_path:
+    if plot:
+        from csw.eval import plots
+
         if len(names) != 1:
             raise click.UsageError("--plot draws one scene; this folder holds several")
         with opt.library_errors():
-            plots.tradeoff(plot_path, rows,
+            plots.tradeoff(plot, rows,
                            f"{names[0]}: {cost.upper()} {window}x{window}, d 0..{top}")

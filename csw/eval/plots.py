@@ -1,6 +1,6 @@
 """Figures for the reports and commands (matplotlib, an optional extra: ``csw[plot]``)."""
 
-from .io import atomic_write
+from ..io.atomic import atomic_write
 
 
 def pyplot():

@@ -1,10 +1,10 @@
 """CSW's trade-off between work saved and accuracy, over tau, rules and uniqueness."""
 
+from ..params import OFF
+from ..pipeline import run as run_pipeline
+from ..tau import paper_tau, sweep_value
 from .bench import RULE_LABELS
-from .pipeline import OFF
-from .pipeline import run as run_pipeline
 from .scoring import bad1_all, score
-from .tau import paper_tau, sweep_value
 
 DEFAULT_TAUS = "0.25x,0.5x,1x,1.5x,2x,3x,5x,none"
 

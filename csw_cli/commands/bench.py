@@ -2,10 +2,11 @@
 
 import click
 
-from csw.bench import run_bench
+from csw import params
+from csw.tau import WORDS, parse_tau
 
-from . import options as opt
-from .report import emit
+from .. import options as opt
+from ..report import emit
 
 COLUMNS = [
     ("dataset", "Image", 0),
@@ -24,34 +25,37 @@ PAPER_COLUMNS = [
     ("paper_error_rate", "Paper error (%)", 2),
     ("paper_time_reduced", "Paper time reduced (%)", 2),
 ]
-def bench_stage_options(command):
-    """The pipeline's stage options, less --preset (bench has its own)."""
-    for option in reversed(opt.STAGE_OPTIONS[1:]):
-        command = option(command)
-    return command
+
+
+def literal_tau(ctx, param, value):
+    """bench's --tau also takes 'paper': the paper's tau where it has one."""
+    try:
+        return parse_tau(value, WORDS)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
 
 
 @click.command(short_help="Score and time plain vs CSW matching (the paper's TABLE II).")
 @opt.dataset_option(required=False)
 @opt.dataset_dir_option
-@opt.cost_option(multiple=True, default=None)
-@opt.engine_option(multiple=True, default=None)
-@click.option("--tau", default=None, type=opt.TauType(opt.WORDS),
+@opt.option("cost", multiple=True)
+@opt.option("engine", multiple=True)
+@click.option("--tau", default=None, callback=literal_tau,
               help="tau of the literal rule's rows: N, 'auto' (histogram rule on the plain "
                    "min-cost map), 'none' or 'paper' [default: paper with --preset paper, "
                    "else auto].")
-@opt.rule_option(multiple=True, default=None)
-@click.option("--unique-tau", type=opt.TauType(), default=None,
-              help="tau for the unique rule's rows [default: none, no cost threshold].")
-@opt.uniqueness_option
-@click.option("--preset", type=click.Choice(["paper", "raw", "accurate"]), default=None,
-              help="paper: the paper's method and settings (window engine, literal rule, "
-                   "9x9, its costs, disparity ranges and taus); raw or accurate: that "
-                   "pipeline (see csw match) around every row [default: raw].")
-@opt.window_option()
-@opt.dmin_option
+@opt.option("csw_rule", multiple=True)
+@opt.option("tau", flag="--unique-tau", dest="unique_tau",
+            help="tau for the unique rule's rows [default: none, no cost threshold].")
+@opt.option("uniqueness")
+@opt.option("preset", preset=params.EXPERIMENT_PRESET,
+            help="paper: the paper's method and settings (window engine, literal rule, 9x9, "
+                 "its costs, disparity ranges and taus); raw or accurate: that pipeline (see "
+                 "csw match) around every row.")
+@opt.option("window", short="-w", default=params.DEFAULTS["window"])
+@opt.option("dmin", default=params.DEFAULTS["dmin"])
 @opt.dataset_dmax_option
-@click.option("--repeat", type=click.IntRange(1, 1000), default=opt.BENCH_REPEAT,
+@click.option("--repeat", type=click.IntRange(1, 1000), default=params.BENCH_REPEAT,
               show_default=True, help="Timed runs of each variant; the median is reported.")
 @opt.bench_threads_option
 @click.option("--paper-figures/--no-paper-figures", default=False, show_default=True,
@@ -60,11 +64,11 @@ def bench_stage_options(command):
 @opt.data_dir_option
 @opt.download_option
 @opt.verify_option
-@bench_stage_options
+@opt.stage_options(params.EXPERIMENT_PRESET, skip=("preset",))
 @click.pass_context
-def bench(ctx, datasets, dataset_dirs, costs, engines, tau, rules, unique_tau, uniqueness, preset,
-          window, dmin, dmax, repeat, threads, paper_figures, fmt, data_dir, download, verify,
-          **stage_values):
+def bench(ctx, datasets, dataset_dirs, costs, engines, tau, csw_rules, unique_tau, uniqueness,
+          preset, window, dmin, dmax, repeat, threads, paper_figures, fmt, data_dir, download,
+          verify, **stage_values):
     """Match each dataset plain and with CSW, score both, and time both.
 
     Datasets come from the registry (--dataset) or from benchmark folders as published
@@ -82,11 +86,13 @@ def bench(ctx, datasets, dataset_dirs, costs, engines, tau, rules, unique_tau, u
     def progress(step):
         click.echo(f"bench: {step}", err=True)
 
+    from csw import run_bench
+
     with opt.library_errors():
         rows, caption = run_bench(
             opt.pairs(datasets, dataset_dirs, data_dir, download, verify), preset=preset,
-            costs=costs, engines=engines, rules=rules, tau=tau, unique_tau=unique_tau,
+            costs=costs, engines=engines, rules=csw_rules, tau=tau, unique_tau=unique_tau,
             uniqueness=uniqueness, window=window, dmin=dmin, dmax=dmax, repeat=repeat,
             threads=threads, progress=progress,
-            stages=opt.given(ctx, [n for n in opt.STAGE_NAMES if n != "preset"]))
+            stages=opt.given(ctx, list(params.OFF)))
     emit(rows, COLUMNS + (PAPER_COLUMNS if paper_figures else []), fmt, caption)

@@ -157,6 +157,11 @@ SYNTHETIC_SIZE = (450, 375)
 SYNTHETIC_DMAX = 64
 
 
+# Said wherever registered files are used without their sha256 check (--no-verify).
+NOT_VERIFIED = ("dataset files were not checked against their sha256 (--no-verify); "
+                "figures from modified data are not the benchmark's")
+
+
 class DataError(Exception):
     """Data that can't be found, fetched or verified; the message says what to do."""
 
@@ -299,7 +304,7 @@ def _remember(records):
     """Save the verification records; best effort (a read-only cache just re-hashes)."""
     import json
 
-    from .io import atomic_write
+    from ..io.atomic import atomic_write
 
     try:
         _make_folders(cache_dir())
@@ -365,12 +370,14 @@ class Pair:
     layout: str = "registry"
     verified: bool = True  # False: registry files used without their sha256 check
 
-
-def scaled_gt(raw, scale):
-    """Stored ground truth -> disparities in pixels (float32), nan where 0 (unknown)."""
-    gt = raw.astype(np.float32) / np.float32(scale)
-    gt[raw == 0] = np.nan
-    return gt
+    def regions(self, border=None):
+        """The scoring regions, with ``border`` pixels on every side left out instead of
+        the dataset's own border where given."""
+        if border is None:
+            return dict(self.masks)
+        regions = region_masks(np.isfinite(self.gt), border, {})
+        regions.update({k: v & regions["all"] for k, v in self.masks.items() if k != "all"})
+        return regions
 
 
 def region_masks(known, border, mask_images):
@@ -397,7 +404,7 @@ def load(name, explicit_dir=None, allow_download=True, verify=True):
 
     verify: check every file against the registry's sha256 (remembered once done);
     False uses modified data knowingly, and the Pair says so (``verified``)."""
-    from .io import ImageError, read_image
+    from ..io import ImageError, read_disparity, read_image
 
     if name == SYNTHETIC:
         from .synth import render
@@ -410,13 +417,14 @@ def load(name, explicit_dir=None, allow_download=True, verify=True):
         raise DataError(f"unknown dataset {name!r}; choose from {', '.join(names())}")
     ds = DATASETS[name]
     try:
-        left, right, raw = (read_image(resolve(f, explicit_dir, allow_download, verify))
-                            for f in (ds.left, ds.right, ds.gt))
+        left, right = (read_image(resolve(f, explicit_dir, allow_download, verify))
+                       for f in (ds.left, ds.right))
+        # Stored value / the dataset's scale = disparity in pixels; 0 is unknown.
+        gt = read_disparity(resolve(ds.gt, explicit_dir, allow_download, verify), ds.gt_scale)
         mask_images = {r: read_image(resolve(f, explicit_dir, allow_download, verify))
                        for r, f in ds.masks.items()}
     except ImageError as exc:
         raise DataError(str(exc)) from None
-    gt = scaled_gt(raw, ds.gt_scale)
     check_sizes(name, left, right, gt)
     return Pair(name, left, right, gt, region_masks(np.isfinite(gt), ds.border, mask_images),
                 ds.dmax, ds, verified=verify)

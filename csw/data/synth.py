@@ -143,7 +143,7 @@ def write_scene(directory, width=450, height=375, dmax=64, seed=0):
     the left pixel is visible in the right image, Middlebury's mask convention)."""
     from pathlib import Path
 
-    from .io import atomic_write_all, pfm_writer, png_writer
+    from ..io import atomic_write_all, pfm_writer, png_writer
 
     left, right, gt, nonocc = render(width, height, dmax, seed)
     directory = Path(directory)
@@ -175,7 +175,8 @@ def write_tiff_scene(directory, width, height, dmax=64, seed=0, band=256, proces
 
     import tifffile
 
-    from .io import atomic_write_all, tiff_tiles
+    from ..io.atomic import atomic_write_all
+    from ..io.formats import tiff_tiles
 
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)

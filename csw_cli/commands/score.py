@@ -5,13 +5,14 @@ from pathlib import Path
 import click
 import numpy as np
 
-from csw import layouts
-from csw.datasets import region_masks, scaled_gt
-from csw.io import OUTPUT_SUFFIXES, read_disparity, read_image
-from csw.scoring import THRESHOLDS, metric_rows, pooled_rows, score
+from csw.data import layouts
+from csw.data.datasets import region_masks
+from csw.eval.scoring import THRESHOLDS, metric_rows, pooled_rows
+from csw.eval.scoring import score as score_map
+from csw.io import read_disparity, read_image
 
-from . import options as opt
-from .report import emit
+from .. import options as opt
+from ..report import emit
 
 COLUMNS = [("scene", "Scene", 0), ("region", "Region", 0), ("pixels", "Pixels", 0)] + [
     (f"bad_{t:g}", f"bad-{t:g} (%)", 2) for t in THRESHOLDS] + [
@@ -25,33 +26,13 @@ def _read(reader, path, hint, *args):
 
 def truth_from_files(gt, gt_scale, masks, border):
     """(gt, regions) from --gt, --gt-scale, --mask and --border."""
-    if str(gt).lower().endswith((".pfm", ".npy")):
-        truth = _read(read_disparity, gt, "--gt", gt_scale)
-    else:
-        raw = _read(read_image, gt, "--gt")
-        default = 256.0 if raw.dtype == np.uint16 else 1.0
-        truth = scaled_gt(raw, gt_scale or default)
+    truth = _read(read_disparity, gt, "--gt", gt_scale)
     mask_images = {}
     for i, spec in enumerate(masks):
         name, _, path = spec.rpartition("=")
         mask_images[name or f"mask{i + 1}"] = _read(read_image, path, "--mask")
     with opt.library_errors("--mask"):
         return truth, region_masks(np.isfinite(truth), border or 0, mask_images)
-
-
-def with_border(pair, border):
-    """The pair's regions, with --border replacing the dataset's own where given."""
-    if border is None:
-        return dict(pair.masks)
-    regions = region_masks(np.isfinite(pair.gt), border, {})
-    regions.update({k: v & regions["all"] for k, v in pair.masks.items() if k != "all"})
-    return regions
-
-
-def scene_map(folder, scene):
-    """The map for ``scene`` in a folder of maps: SCENE.pfm, .png or .npy."""
-    found = [folder / f"{scene}{s}" for s in OUTPUT_SUFFIXES if (folder / f"{scene}{s}").is_file()]
-    return found[0] if found else None
 
 
 @click.command(short_help="Score a disparity map against ground truth.")
@@ -75,7 +56,7 @@ def scene_map(folder, scene):
 @opt.data_dir_option
 @opt.download_option
 @opt.verify_option
-def score_cmd(disp, gt, gt_scale, masks, border, dataset, dataset_dir, scene, fmt, data_dir,
+def score(disp, gt, gt_scale, masks, border, dataset, dataset_dir, scene, fmt, data_dir,
               download, verify):
     """Score DISP (PFM, PNG d*256, or NPY) with bad-0.5/1/2/4, invalid, MAE and RMS.
 
@@ -105,15 +86,15 @@ def score_cmd(disp, gt, gt_scale, masks, border, dataset, dataset_dir, scene, fm
     if dataset_dir:
         with opt.library_errors("--dataset-dir"):
             pair = layouts.find_scene(dataset_dir, scene).load()
-        truth, regions = pair.gt, with_border(pair, border)
+        truth, regions = pair.gt, pair.regions(border)
     elif dataset:
         pair = next(opt.pairs([dataset], [], data_dir, download, verify))
-        truth, regions = pair.gt, with_border(pair, border)
+        truth, regions = pair.gt, pair.regions(border)
     else:
         truth, regions = truth_from_files(gt, gt_scale, masks, border)
     pred = _read(read_disparity, disp, "DISP")
     with opt.library_errors("DISP"):
-        metrics = score(pred, truth, regions)
+        metrics = score_map(pred, truth, regions)
     emit(metric_rows(metrics), COLUMNS[1:], fmt)
 
 
@@ -123,7 +104,7 @@ def score_folder(maps, dataset_dir, border, fmt):
         scenes = layouts.scan(dataset_dir)
     rows, missing = [], []
     for scene in scenes:
-        path = scene_map(maps, scene.name)
+        path = layouts.map_for(maps, scene.name)
         if path is None:
             missing.append(scene.name)
             continue
@@ -131,7 +112,7 @@ def score_folder(maps, dataset_dir, border, fmt):
             pair = scene.load()
         pred = _read(read_disparity, path, "DISP")
         with opt.library_errors("DISP"):
-            metrics = score(pred, pair.gt, with_border(pair, border))
+            metrics = score_map(pred, pair.gt, pair.regions(border))
         rows += metric_rows(metrics, scene=scene.name)
     if not rows:
         raise click.ClickException(f"{maps} has no map named after a scene of {dataset_dir} "

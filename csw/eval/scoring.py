@@ -7,7 +7,7 @@ MAE and RMS are over the valid predictions of the region.
 
 import numpy as np
 
-from .io import as_float_disparity
+from ..io.formats import as_float_disparity
 
 THRESHOLDS = (0.5, 1.0, 2.0, 4.0)
 
@@ -69,7 +69,7 @@ def filled_bad(disp, gt, region, threshold=2.0):
     """bad-t (%) over ``region`` after the evaluation kits' background fill (csw.pipeline's
     fill="background"), the same fill for every method: invalid pixels take the smaller
     nearest valid disparity on their row."""
-    from .kernels.filters import fill_background
+    from ..kernels.filters import fill_background
 
     filled = fill_background(as_float_disparity(disp, np.float32))
     return score(filled, gt, {"r": region}, (threshold,))["r"]["bad"][threshold]

@@ -2,7 +2,7 @@
 
 import click
 
-from csw.synth import write_scene, write_tiff_scene
+from csw.data.synth import write_scene, write_tiff_scene
 
 PNG_MAX_PIXELS = 50_000_000  # rendered whole in memory
 TIFF_MAX_PIXELS = 4_000_000_000  # rendered by row bands

@@ -8,14 +8,12 @@ optional callback, so the library prints nothing.
 import statistics
 import time
 
-import numpy as np
-
-from . import kernels, paper
-from .defaults import BENCH_REPEAT, BENCH_THREADS, PRESETS
-from .pipeline import OFF
-from .pipeline import run as run_pipeline
+from .. import kernels, paper, params
+from ..data.datasets import NOT_VERIFIED
+from ..params import BENCH_REPEAT, BENCH_THREADS, EXPERIMENT_PRESET, OFF, PRESETS
+from ..pipeline import run as run_pipeline
+from ..tau import resolve_tau
 from .scoring import THRESHOLDS, filled_bad, score
-from .tau import resolve_tau
 
 RULE_LABELS = {None: "", "literal": " + CSW", "unique": " + CSW-unique"}
 
@@ -143,20 +141,17 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
     csw.pipeline).  dmax: None for each pair's own range (or the paper's with the paper
     preset).  Returns (rows, caption).
     """
-    from .matching import warm_up
+    from ..prepare import warm_up
 
     chosen = PAPER_PRESET if preset == "paper" else PLAIN_PRESET
-    named = PRESETS.get(preset or "raw", PRESETS["raw"])
-    stage_values = {k: named[k] for k in OFF}
-    if preset == "paper" and stages and any(v != OFF[k] for k, v in stages.items()):
-        raise ValueError("the paper preset is the paper's raw method; drop the stages")
-    stage_values.update(stages or {})
+    named = params.resolve(preset=preset or EXPERIMENT_PRESET, **(stages or {}))
+    stage_values = params.stages(named)
     if costs is None and preset not in (None, "paper", "raw"):
         costs = [named["cost"]]
     engines = engines or chosen["engines"]
     rules = rules or chosen["rules"]
     tau = chosen["tau"] if tau is None else tau
-    if preset == "paper" and window != paper.WINDOW:
+    if preset == "paper" and window != PRESETS["paper"]["window"]:
         raise ValueError("the paper preset uses the paper's 9x9 window; drop the window")
     compiled = {}
     rows, registry, folder_rows, unverified = [], [], [], False
@@ -188,8 +183,7 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
         text += ("\nPipeline stages around every row: "
                  + ", ".join(f"{k} {v}" for k, v in staged.items()) + ".")
     if unverified:
-        text += ("\nWARNING: dataset files were not checked against their sha256 "
-                 "(--no-verify); these figures may come from modified data.")
+        text += "\nWARNING: " + NOT_VERIFIED + "."
     return rows, text
 
 
@@ -241,14 +235,3 @@ def caption(datasets, preset_paper, window, threads, repeat, compile_s):
                      "factor (third size: d 0..50, half size: d 0..75) and tau is the "
                      "paper's unchanged.")
     return "\n".join(lines)
-
-
-def histogram_rows(min_cost, bins=10):
-    """The distribution of a min-cost map m (int64, -1 invalid) in ``bins`` equal bins, as
-    rows (low, high, count, share %, a text bar): the paper's Fig. 9."""
-    valid = np.asarray(min_cost)[np.asarray(min_cost) >= 0]
-    counts, edges = np.histogram(valid, bins=bins)
-    top = max(int(counts.max()), 1)
-    return [{"low": float(edges[i]), "high": float(edges[i + 1]), "count": int(counts[i]),
-             "share": 100.0 * counts[i] / max(valid.size, 1),
-             "bar": "#" * int(round(40 * counts[i] / top))} for i in range(bins)]

@@ -23,10 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .io import ImageError, read_image, to_gray
-
-TIFF_SUFFIXES = (".tif", ".tiff")
-WINDOWED_SUFFIXES = (*TIFF_SUFFIXES, ".npy", ".zarr")
+from .formats import FORMATS
+from .images import ImageError, read_image, to_gray
 
 
 def open_source(image, name="image", probe=True):
@@ -37,10 +35,9 @@ def open_source(image, name="image", probe=True):
         path = Path(image)
         if not path.exists():
             raise ImageError(f"{path}: no such file")
-        suffix = path.suffix.lower()
-        source = (TiffSource(path) if suffix in TIFF_SUFFIXES else
-                  NpySource(path) if suffix == ".npy" else
-                  ZarrSource(path) if suffix == ".zarr" else WholeSource(path))
+        kind = getattr(FORMATS.get(path.suffix.lower()), "image", None)
+        source = {"tiff": TiffSource, "npy": NpySource, "zarr": ZarrSource}.get(
+            kind, WholeSource)(path)
     else:
         source = ArraySource(image, name)
     if probe:

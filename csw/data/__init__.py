@@ -1,0 +1,2 @@
+"""Data: the dataset registry and its downloads, benchmark folders in their published
+layouts, and the synthetic scene."""

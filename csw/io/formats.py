@@ -1,0 +1,384 @@
+"""File formats, in one table: for each suffix, how an input image is read and how a
+disparity map is read and written.  Every suffix list in csw derives from ``FORMATS``, so
+a new format is one row here (plus its reader or writers).
+
+Disparity maps in memory are float with NaN for invalid (or int with -1); on disk:
+
+  .pfm        float32, Middlebury v3 (rows bottom to top, scale -1), inf invalid
+  .npy        float32, inf invalid
+  .png        uint16, d x 256 (KITTI), 0 invalid; holds d <= 255.99
+  .tif/.tiff  tiled float32, NaN invalid (GDAL's nodata tag); written a stripe at a time
+  .zarr       float32 zarr array, NaN invalid; written a stripe at a time
+
+Stripe writers take ``blocks(rows, bottom_up=False)``, an iterator factory over (start row,
+float32 rows) of the map, so that a map bigger than memory is written a band at a time.
+"""
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .atomic import atomic_write
+from .images import ImageError, read_image
+
+PNG_MAX_DISPARITY = 65535 / 256  # KITTI: uint16 value = d * 256
+TIFF_TILE = 256
+
+
+# ---------------------------------------------------------------------------- conventions
+
+
+def as_float_disparity(disp, dtype=np.float64):
+    """A disparity map in any of csw's conventions (int with -1 invalid, float with
+    NaN/inf or negative invalid) -> float (H, W) with NaN invalid."""
+    out = np.asarray(disp).astype(dtype)
+    out[~np.isfinite(out) | (out < 0)] = np.nan
+    return out
+
+
+def disparity_to_file_float(disp):
+    """float32 (H, W) with inf invalid: what PFM and NPY outputs hold."""
+    out = as_float_disparity(disp, np.float32)
+    out[np.isnan(out)] = np.inf
+    return out
+
+
+def kitti_png_values(disp):
+    """A disparity map (any of csw's conventions) as KITTI's uint16 round(d * 256), 0
+    where invalid; ValueError when a disparity is too large for 16 bits."""
+    values = as_float_disparity(disp)
+    if np.nanmax(values, initial=0) > PNG_MAX_DISPARITY:
+        raise ValueError(too_large_message(".png", float(np.nanmax(values))))
+    # KITTI stores 0 for invalid, so d = 0 is indistinguishable from invalid there.
+    return np.where(np.isfinite(values), np.round(values * 256), 0).astype(np.uint16)
+
+
+def colorize(disp, dmax):
+    """uint8 (H, W, 3) visualisation of a disparity map (any of csw's conventions): a
+    blue-to-red ramp, invalid black. Piecewise-linear 'jet' anchors, so no plotting
+    library is needed."""
+    anchors = np.array([[0, 0, 128], [0, 0, 255], [0, 255, 255], [255, 255, 0],
+                        [255, 0, 0], [128, 0, 0]], dtype=np.float64)
+    disp = as_float_disparity(disp)
+    invalid = np.isnan(disp)
+    t = np.clip(np.nan_to_num(disp) / max(dmax, 1), 0, 1) * (len(anchors) - 1)
+    lo = np.floor(t).astype(int)
+    hi = np.minimum(lo + 1, len(anchors) - 1)
+    frac = (t - lo)[..., None]
+    rgb = anchors[lo] * (1 - frac) + anchors[hi] * frac
+    rgb[invalid] = 0
+    return np.round(rgb).astype(np.uint8)
+
+
+# ---------------------------------------------------------------------------- PFM
+
+
+def pfm_header(width, height):
+    """Middlebury v3 PFM's header: 'Pf', width height, -1 (little-endian); the rows
+    follow bottom to top."""
+    return f"Pf\n{width} {height}\n-1\n".encode("ascii")
+
+
+def read_pfm(path):
+    """Read a PFM file as float32 (H, W) (top row first); raise ImageError if malformed.
+
+    The header is checked against the file's size before anything is allocated, so a
+    header that claims a huge image fails at once."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as f:
+            kind = f.readline(16).strip()
+            if kind not in (b"Pf", b"PF"):
+                raise ImageError(f"{path}: not a PFM file")
+            dims = f.readline(64).split()
+            while not dims:  # tolerate blank lines
+                dims = f.readline(64).split()
+            width, height = int(dims[0]), int(dims[1])
+            scale = float(f.readline(64).strip())
+            channels = 3 if kind == b"PF" else 1
+            if width < 1 or height < 1 or len(dims) != 2:
+                raise ImageError(f"{path}: PFM header gives a size of {width}x{height}")
+            if not np.isfinite(scale) or scale == 0:
+                raise ImageError(f"{path}: PFM scale must be a non-zero number (its sign "
+                                 f"gives the byte order), got {scale}")
+            expected = width * height * channels * 4
+            available = os.fstat(f.fileno()).st_size - f.tell()
+            if available < expected:
+                raise ImageError(f"{path}: PFM header says {width}x{height}, which needs "
+                                 f"{expected} bytes of data; the file has {available}")
+            dtype = "<f4" if scale < 0 else ">f4"
+            data = np.fromfile(f, dtype=dtype, count=width * height * channels)
+    except (OSError, ValueError, IndexError) as exc:
+        raise ImageError(f"{path}: not a readable PFM ({exc})") from None
+    if data.size != width * height * channels:
+        raise ImageError(f"{path}: PFM is truncated")
+    data = data.reshape(height, width, channels)[..., 0] if channels == 3 else \
+        data.reshape(height, width)
+    return np.flipud(data).astype(np.float32)
+
+
+def pfm_writer(values):
+    """A ``write_to(tmp)`` for a float32 (H, W) map as PFM (inf where not finite)."""
+    values = np.where(np.isfinite(values), values, np.inf).astype("<f4")
+    height, width = values.shape
+    payload = pfm_header(width, height) + np.flipud(values).tobytes()
+    return lambda tmp: Path(tmp).write_bytes(payload)
+
+
+def png_writer(image):
+    """A ``write_to(tmp)`` for a uint8/uint16 image (gray or RGB) as PNG."""
+    import imageio.v3 as iio
+
+    return lambda tmp: iio.imwrite(tmp, image, extension=".png")
+
+
+def _npy_writer(values):
+    def save(tmp):
+        with open(tmp, "wb") as f:
+            np.save(f, values)
+
+    return save
+
+
+# ---------------------------------------------------------------------------- readers
+
+
+def _read_float_map(path, scale):
+    """PFM or NPY: as stored, non-finite (and, for NPY, negative) unknown."""
+    if path.suffix.lower() == ".pfm":
+        disp = read_pfm(path)
+        disp = np.where(np.isfinite(disp), disp, np.nan).astype(np.float32)
+    else:
+        try:
+            disp = np.load(path, allow_pickle=False).astype(np.float32)
+        except Exception as exc:
+            raise ImageError(f"{path}: not a readable .npy array ({exc})") from None
+        if disp.ndim != 2:
+            raise ImageError(f"{path}: expected a 2-D array, got shape {disp.shape}")
+        disp[~np.isfinite(disp) | (disp < 0)] = np.nan
+    return disp / scale if scale else disp
+
+
+def _read_image_map(path, scale):
+    """An integer image (ground truth, KITTI PNG): value / scale, 0 unknown; the scale is
+    256 for 16-bit images (KITTI) and 1 for 8-bit ones unless given."""
+    raw = read_image(path)
+    if scale is None:
+        scale = 256.0 if raw.dtype == np.uint16 else 1.0
+    disp = raw.astype(np.float32) / float(scale)
+    disp[raw == 0] = np.nan
+    return disp
+
+
+def read_disparity(path, scale=None):
+    """Read a disparity map (or ground truth) as float32 (H, W), NaN unknown.
+
+    PFM and NPY as stored (non-finite unknown; NPY negative too); images (PNG, PGM ...):
+    value / scale, 0 unknown, the scale 256 for 16-bit (KITTI) and 1 for 8-bit images
+    unless given (Middlebury ground truth: see the dataset's scale).
+    """
+    path = Path(path)
+    return format_of(path, "read").read(path, scale)
+
+
+# ---------------------------------------------------------------------------- stripe writers
+
+
+def _tiff_stripes(path, shape, blocks):
+    import tifffile
+
+    height, width = shape
+
+    def write(tmp):
+        tiles = tiff_tiles((b for _, b in blocks(TIFF_TILE)), width, np.float32, np.nan,
+                           TIFF_TILE)
+        tifffile.imwrite(tmp, tiles, shape=shape, dtype=np.float32,
+                         tile=(TIFF_TILE, TIFF_TILE), bigtiff=height * width * 4 > 2**31,
+                         photometric="minisblack",
+                         extratags=[(42113, "s", 0, "nan", True)])  # GDAL_NODATA
+    return write
+
+
+def _pfm_stripes(path, shape, blocks):
+    height, width = shape
+
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            f.write(pfm_header(width, height))
+            for _, block in blocks(TIFF_TILE, bottom_up=True):
+                f.write(np.flipud(disparity_to_file_float(block)).astype("<f4").tobytes())
+    return write
+
+
+def _npy_stripes(path, shape, blocks):
+    def write(tmp):
+        out = np.lib.format.open_memmap(tmp, mode="w+", dtype="<f4", shape=shape)
+        for start, block in blocks(TIFF_TILE):
+            out[start:start + block.shape[0]] = disparity_to_file_float(block)
+        out.flush()
+        del out
+    return write
+
+
+def _png_stripes(path, shape, blocks):
+    import png
+
+    height, width = shape
+
+    def write(tmp):
+        rows = (row for _, block in blocks(TIFF_TILE) for row in kitti_png_values(block))
+        with open(tmp, "wb") as f:
+            png.Writer(width, height, greyscale=True, bitdepth=16).write(f, rows)
+    return write
+
+
+def preview_stripes(shape, blocks, dmax):
+    """A ``write_to(tmp)`` for an 8-bit colour PNG of a map (see colorize), a band at a
+    time."""
+    import png
+
+    height, width = shape
+
+    def write(tmp):
+        rows = (row.reshape(-1) for _, block in blocks(TIFF_TILE)
+                for row in colorize(block, dmax))
+        with open(tmp, "wb") as f:
+            png.Writer(width, height, greyscale=False, bitdepth=8).write(f, rows)
+    return write
+
+
+def tiff_tiles(blocks, width, dtype, fill=0, tile=TIFF_TILE):
+    """(tile, tile) tiles in a TIFF's order from row blocks of ``tile`` rows each (the
+    last may be shorter), padded with ``fill`` past the image's edges: what tifffile
+    writes a tiled image from, a band at a time."""
+    for block in blocks:
+        padded = np.full((tile, -(-width // tile) * tile), fill, dtype)
+        padded[:block.shape[0], :width] = block
+        for x in range(0, width, tile):
+            yield padded[:, x:x + tile]
+
+
+# ---------------------------------------------------------------------------- the table
+
+
+@dataclass(frozen=True)
+class Format:
+    """One file format.
+
+    image: how an input image in this format is read: "pillow" (decoded whole), or by
+        rows with "tiff", "npy" or "zarr" (csw.io.sources); None: not an image format.
+    read: reads a disparity map (path, scale) -> float32 NaN unknown, or None.
+    whole: writes a whole map, values -> write_to(tmp), or None.
+    stripes: writes a map a stripe at a time, (path, shape, blocks) -> write_to(tmp);
+        "store" for a zarr store written in place; None when it can't.
+    floats: holds any float (a confidence map too); largest: the largest disparity held.
+    invalid: how invalid pixels are stored.
+    """
+
+    image: str | None = None
+    read: object = None
+    whole: object = None
+    stripes: object = None
+    floats: bool = True
+    largest: float = float("inf")
+    invalid: str = ""
+
+
+FORMATS = {
+    ".pfm": Format(read=_read_float_map,
+                   whole=lambda disp: pfm_writer(disparity_to_file_float(disp)),
+                   stripes=_pfm_stripes, invalid="inf"),
+    ".npy": Format(image="npy", read=_read_float_map,
+                   whole=lambda disp: _npy_writer(disparity_to_file_float(disp)),
+                   stripes=_npy_stripes, invalid="inf"),
+    ".png": Format(image="pillow", read=_read_image_map,
+                   whole=lambda disp: png_writer(kitti_png_values(disp)),
+                   stripes=_png_stripes, floats=False, largest=PNG_MAX_DISPARITY,
+                   invalid="0"),
+    ".tif": Format(image="tiff", read=_read_image_map, stripes=_tiff_stripes,
+                   invalid="NaN"),
+    ".tiff": Format(image="tiff", read=_read_image_map, stripes=_tiff_stripes,
+                    invalid="NaN"),
+    ".zarr": Format(image="zarr", stripes="store", invalid="NaN"),
+    ".ppm": Format(image="pillow", read=_read_image_map),
+    ".pgm": Format(image="pillow", read=_read_image_map),
+    ".pnm": Format(image="pillow", read=_read_image_map),
+    ".bmp": Format(image="pillow", read=_read_image_map),
+    ".jpg": Format(image="pillow"),
+    ".jpeg": Format(image="pillow"),
+}
+
+
+def suffixes(role):
+    """The suffixes that can play a role, in the table's order:
+      "image"      an input image of csw match (any reader)
+      "decoded"    an input image csw.io.read_image decodes whole (what folders of pairs
+                   are scanned for)
+      "read"       a disparity map or ground truth csw reads
+      "whole"      a disparity map written whole (csw.match's maps, batch maps)
+      "map"        a disparity map csw match writes (whole or in stripes)
+      "stripes"    a disparity map written a stripe at a time
+      "confidence" a confidence map (floats) csw match writes
+    """
+    tests = {
+        "image": lambda f: f.image is not None,
+        "decoded": lambda f: f.image in ("pillow", "tiff"),
+        "read": lambda f: f.read is not None,
+        "whole": lambda f: f.whole is not None,
+        "map": lambda f: f.whole is not None or f.stripes is not None,
+        "stripes": lambda f: f.stripes is not None,
+        "confidence": lambda f: f.floats and (f.whole is not None or f.stripes is not None),
+    }
+    return tuple(s for s, f in FORMATS.items() if tests[role](f))
+
+
+def format_of(path, role):
+    """The Format of ``path`` for a role (see :func:`suffixes`); ValueError naming the
+    suffixes that would do."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in suffixes(role):
+        raise ValueError(f"unknown extension {suffix or '(none)'!r} for {path}; use "
+                         f"{', '.join(suffixes(role))}")
+    return FORMATS[suffix]
+
+
+def too_large_message(suffix, dmax):
+    return (f"dmax {dmax:g} is too large for a 16-bit PNG (d*256 must fit in 16 bits); "
+            f"write {', '.join(s for s in suffixes('map') if FORMATS[s].largest > dmax)}")
+
+
+def check_range(path, dmax):
+    """ValueError when the format of ``path`` can't hold disparities up to ``dmax``."""
+    suffix = Path(path).suffix.lower()
+    if suffix in FORMATS and dmax > FORMATS[suffix].largest:
+        raise ValueError(too_large_message(suffix, dmax))
+
+
+def disparity_writer(path, disp):
+    """A ``write_to(tmp)`` that writes a whole disparity map (int with -1 invalid, or
+    float with NaN/inf invalid) in the format of path's suffix (see the module's table).
+    ValueError for a suffix that can't be written whole or a map the format can't hold."""
+    return format_of(path, "whole").whole(disp)
+
+
+def stripe_writer(path, shape, blocks):
+    """A ``write_to(tmp)`` that writes a map of ``shape`` from ``blocks`` (see the
+    module's docstring) in the format of path's suffix."""
+    return format_of(path, "stripes").stripes(path, shape, blocks)
+
+
+def write_disparity(path, disp):
+    """Write a disparity map atomically; formats as for :func:`disparity_writer`."""
+    atomic_write(path, disparity_writer(path, disp))
+
+
+def write_float_pfm(path, values):
+    """Write a float32 (H, W) map to PFM atomically (inf where not finite)."""
+    atomic_write(path, pfm_writer(values))
+
+
+def write_png(path, image):
+    """Write a uint8/uint16 image as PNG atomically."""
+    atomic_write(path, png_writer(image))

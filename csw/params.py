@@ -1,0 +1,274 @@
+"""Every matching option in one table: its default, its allowed values, its help, and the
+presets over it.  ``csw.match``, the tiled and batch entries, the experiments and every
+command's options read this table, so a default, a choice list or a range is written
+here once (the CLI builds its Click options from it: csw_cli/options.py).
+
+``resolve(**given)`` turns what a caller gave into the full option set: the given values
+over the preset's over the defaults, each checked and normalised (``"off"`` becomes None,
+``"3"`` becomes 3, a tau word stays a word).  Unknown names are a TypeError, bad values a
+ValueError whose message says how to fix them.
+"""
+
+import math
+from dataclasses import dataclass
+
+from .kernels.contract import (
+    COSTS,
+    DEFAULT_CENSUS_WINDOW,
+    DEFAULT_UNIQUENESS,
+    ENGINE_NAMES,
+    RULES,
+)
+from .paper import WINDOW as PAPER_WINDOW
+
+
+class OptionError(ValueError):
+    """A bad value for one named option or argument; ``option`` is its name (the CLI
+    turns it into its flag)."""
+
+    def __init__(self, option, message):
+        super().__init__(message)
+        self.option = option
+
+
+@dataclass(frozen=True)
+class Option:
+    """One matching option.
+
+    kind: how values are read and checked:
+      choice   one of ``choices`` (strings)
+      int      a whole number in [low, high] (``odd``: odd only)
+      float    a number in [low, high]
+      bool     True or False
+      off_int  None ("off") or a whole number in [low, high]
+      auto_int None (the derived default ``default_text`` names) or a whole number
+      tau      a tau as csw.tau reads it (a number >= 0, "auto", "none"), or None
+    stage: a pipeline stage around the kernels (csw.pipeline), off in the paper's contract.
+    flag: the command-line flag, where it differs from --name-with-dashes.
+    """
+
+    name: str
+    kind: str
+    default: object
+    help: str
+    choices: tuple = ()
+    low: float | None = None  # for int and float kinds
+    high: float | None = None
+    odd: bool = False
+    stage: bool = False
+    default_text: str | None = None  # what the help says of the default, when not the value
+    flag: str | None = None
+
+    @property
+    def cli_flag(self):
+        return self.flag or "--" + self.name.replace("_", "-")
+
+    def check(self, value):
+        """The value normalised, or ValueError saying what is allowed."""
+        name = self.name
+        if self.kind == "choice":
+            text = str(value).strip().lower() if isinstance(value, str) else value
+            if text not in self.choices:
+                raise ValueError(f"{name} must be one of {', '.join(map(str, self.choices))}, "
+                                 f"got {value!r}")
+            return text
+        if self.kind == "bool":
+            if not isinstance(value, (bool, int)) or value not in (0, 1):
+                raise ValueError(f"{name} must be True or False, got {value!r}")
+            return bool(value)
+        if self.kind == "tau":
+            from .tau import parse_tau
+
+            return parse_tau(value, ("auto", "none"))
+        if value is None and self.kind in ("off_int", "auto_int"):
+            return None
+        if self.kind == "off_int" and isinstance(value, str) and value.strip().lower() == "off":
+            return None
+        if self.kind == "float":
+            number = _number(name, value)
+        else:
+            number = _whole(name, value, self.kind == "off_int")
+        if (self.low is not None and number < self.low) or \
+                (self.high is not None and number > self.high):
+            raise ValueError(f"{name} must be {self.range_text()}, got {value!r}")
+        if self.choices and number not in self.choices:
+            raise ValueError(f"{name} must be one of {', '.join(map(str, self.choices))}, "
+                             f"got {value!r}")
+        if self.odd and number % 2 == 0:
+            raise ValueError(f"{name} must be odd (e.g. {self.default}), got {number}")
+        return number
+
+    def range_text(self):
+        """The allowed values, in words: 'from 1 to 63', '>= 0', 'odd, from 3 to 7'."""
+        if self.low is not None and self.high is not None:
+            text = f"from {self.low:g} to {self.high:g}"
+        elif self.low is not None:
+            text = f">= {self.low:g}"
+        else:
+            text = "a number"
+        text = ("odd, " + text) if self.odd else text
+        return text + (", or off" if self.kind == "off_int" else "")
+
+
+def _whole(name, value, off=False):
+    if isinstance(value, bool):
+        raise ValueError(f"{name} must be a whole number, got {value!r}")
+    try:
+        number = float(value) if isinstance(value, str) else value
+        if number != int(number):
+            raise ValueError
+        return int(number)
+    except (TypeError, ValueError, OverflowError):
+        more = " or 'off'" if off else ""
+        raise ValueError(f"{name} must be a whole number{more}, got {value!r}") from None
+
+
+def _number(name, value):
+    if isinstance(value, bool):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(number):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return number
+
+
+# What the help says of the unique rule's default margin: "12; 25 for SSD".
+UNIQUENESS_TEXT = "; ".join([str(DEFAULT_UNIQUENESS["sad"])] + [
+    f"{v} for {k.upper()}" for k, v in DEFAULT_UNIQUENESS.items()
+    if v != DEFAULT_UNIQUENESS["sad"]])
+
+RULE_HELP = ("literal: the paper's rule, a match with m <= tau claims its right pixel for "
+             "good. unique: only distinct matches claim, and a claim does not bind the next "
+             "pixel; it keeps plain matching's accuracy (see reports/csw-tradeoff.md).")
+ENGINE_HELP = ("fast: running sums, O(1) per (pixel, disparity); window: a full window sum "
+               "per candidate, the paper's method, where CSW's skipped candidates save real "
+               "time. Both give identical results.")
+
+OPTIONS = {o.name: o for o in [
+    Option("preset", "choice", "accurate", choices=("accurate", "raw", "paper"),
+           help="accurate: census, left-right check and speckle removal, for real "
+                "photographs; raw: the contract's winner-take-all map; paper: the paper's "
+                "method (window engine, SAD 9x9, no stage)."),
+    Option("engine", "choice", "fast", choices=ENGINE_NAMES, help=ENGINE_HELP),
+    Option("cost", "choice", "sad", choices=tuple(COSTS),
+           help="Matching cost: sad, ssd, shd, or census (census codes compared by Hamming "
+                "distance)."),
+    Option("window", "int", 9, low=1, odd=True,
+           help="Odd window side (9 = the paper's 9x9)."),
+    Option("dmin", "int", 0, low=0, help="Smallest disparity searched."),
+    Option("dmax", "int", 64, low=0, help="Largest disparity searched (less than the width)."),
+    Option("csw", "bool", False,
+           help="Skip right pixels already claimed by a confident match."),
+    Option("csw_rule", "choice", "literal", choices=tuple(RULES), help=RULE_HELP),
+    Option("tau", "tau", None, default_text="auto for the literal rule, none for the unique "
+                                            "rule",
+           help="CSW threshold on the minimum cost: a number, 'auto' for the paper's rule "
+                "(width of the first of 10 histogram bins), or 'none'. Needs --csw."),
+    Option("uniqueness", "auto_int", None, low=0, high=1000, default_text=UNIQUENESS_TEXT,
+           help="The unique rule's margin in percent: the best cost must beat every "
+                "candidate 2 or more disparities away by this much."),
+    Option("threads", "auto_int", None, low=1, default_text="all cores",
+           help="Threads for row-parallel matching."),
+    # The pipeline's stages (csw.pipeline), all off in the paper's contract.
+    Option("prefilter", "choice", "none", choices=("none", "xsobel"), stage=True,
+           help="xsobel: StereoBM's x-Sobel prefilter, clipped to +-cap."),
+    Option("prefilter_cap", "int", 31, low=1, high=63, stage=True,
+           help="The prefilter's cap (StereoBM's range)."),
+    Option("census_window", "int", DEFAULT_CENSUS_WINDOW, low=3, odd=True, stage=True,
+           help="Census window side for --cost census (odd; 7 or less for 64 bits)."),
+    Option("lr_check", "off_int", None, low=0, high=10**9, stage=True,
+           help="Left-right check from the same costs: invalid where the right image's "
+                "match differs by more than N; 'off' to drop it."),
+    Option("uniqueness_ratio", "off_int", None, low=0, high=10**9, stage=True,
+           help="StereoBM's: invalid where a candidate 2+ away costs within N% of the best."),
+    Option("texture_threshold", "off_int", None, low=0, high=10**9, stage=True,
+           help="StereoBM's: invalid where the window's summed |x-Sobel| is below N."),
+    Option("subpixel", "choice", "none", choices=("none", "parabola", "linear"), stage=True,
+           help="Subpixel fit through the costs at d-1, d, d+1."),
+    Option("speckle_size", "int", 0, low=0, high=10**7, stage=True,
+           help="Invalidate regions of similar disparity under N pixels (0: off)."),
+    Option("speckle_range", "float", 1.0, low=0, high=1000, stage=True,
+           help="Largest step between neighbours of one speckle region."),
+    Option("median", "int", 0, choices=(0, 3, 5, 7), stage=True,
+           help="A KxK median over valid pixels (0: off)."),
+    Option("fill", "choice", "none", choices=("none", "background"), stage=True,
+           help="background: fill invalid pixels as the Middlebury/KITTI kits do."),
+]}
+
+# The pipeline's stages with their "off" values: the paper's contract.
+OFF = {name: o.default for name, o in OPTIONS.items() if o.stage}
+DEFAULTS = {name: o.default for name, o in OPTIONS.items()}
+
+PRESETS = {
+    # The paper's method exactly, what TABLE II measures: no stage may be added to it.
+    "paper": {"engine": "window", "cost": "sad", "window": PAPER_WINDOW, **OFF},
+    # The contract's raw winner-take-all map, with the engine and cost as given.
+    "raw": {**OFF},
+    # The pipeline recommended for real photographs, one setting for every dataset
+    # (reports/quality.md has the measurements): census 7x7 over a 9x9 window, the
+    # left-right check at 2, and speckles under 100 pixels removed.
+    "accurate": {**OFF, "cost": "census", "census_window": 7, "lr_check": 2,
+                 "speckle_size": 100, "speckle_range": 1.0},
+}
+# The experiments (bench, sweep, hist) study the kernels' maps unless told otherwise.
+EXPERIMENT_PRESET = "raw"
+# Experiments time and score on one thread, the paper's setting, unless told.
+BENCH_THREADS = 1
+BENCH_REPEAT = 5
+
+
+def check(name, value):
+    """One option's value, normalised; OptionError (a ValueError) when not allowed."""
+    try:
+        return OPTIONS[name].check(value)
+    except ValueError as exc:
+        raise OptionError(name, str(exc)) from None
+
+
+def resolve(**given):
+    """The full option set: ``given`` over its preset over the defaults, every value
+    checked and normalised.  TypeError for an unknown name; ValueError for a bad value, a
+    stage added to the paper preset, or a tau given without CSW."""
+    unknown = set(given) - set(OPTIONS)
+    if unknown:
+        raise TypeError(f"unknown option(s) {', '.join(sorted(unknown))}; "
+                        f"csw.match takes {', '.join(OPTIONS)}")
+    given = {k: check(k, v) for k, v in given.items()}
+    preset = given.get("preset", DEFAULTS["preset"])
+    if preset == "paper":
+        added = [k for k in OFF if k in given and given[k] != OFF[k]]
+        if added:
+            raise ValueError(f"the paper preset is the paper's raw method; drop "
+                             f"{', '.join(added)} (or use another preset)")
+    opts = {**DEFAULTS, **PRESETS[preset], **given}
+    check_tau_use(opts["csw"], opts["tau"])
+    return opts
+
+
+def check_tau_use(csw, tau):
+    """Refuse a tau that would do nothing: CSW is off."""
+    if not csw and tau is not None:
+        raise OptionError("tau", "tau applies only with CSW on; add csw=True (--csw) or "
+                                 "drop tau")
+
+
+def stages(opts):
+    """The pipeline's stage options out of a full option set."""
+    return {k: opts[k] for k in OFF}
+
+
+def kernel_args(opts):
+    """The kernels' keyword arguments for a resolved option set."""
+    return dict(engine=opts["engine"], window=opts["window"], dmin=opts["dmin"],
+                dmax=opts["dmax"], cost=opts["cost"], rule=opts["csw_rule"],
+                uniqueness=opts["uniqueness"], threads=opts["threads"])
+
+
+def experiment_stages(**given):
+    """The stage options of an experiment (bench, sweep): ``preset`` (default: the
+    experiments' raw) and stage options over it, checked as for :func:`resolve`."""
+    given.setdefault("preset", EXPERIMENT_PRESET)
+    return stages(resolve(**given))

@@ -1,0 +1,174 @@
+"""How a pair is cut into row stripes: the memory model, the plan, and the rows each
+stripe reads.
+
+Rows are independent in CSW, so a stripe read with the rows above and below that the
+windows reach gives exactly the rows of a whole-image match (:func:`csw.pipeline.
+row_overlap`).  The speckle filter and the median look across rows: when they are on, a
+second pass reads the first pass's map back with the rows they need
+(:func:`csw.pipeline.filter_overlap`), which makes them exact too.
+"""
+
+import math
+import re
+from dataclasses import dataclass
+
+from .. import kernels
+from ..io.formats import TIFF_TILE
+from ..io.sources import open_source
+from ..params import stages
+from ..pipeline import filter_overlap, row_overlap
+
+DEFAULT_MEMORY_LIMIT = 512 * 2**20  # the stripes' working memory, per process
+
+# Bytes each band pixel costs in the first pass (inputs, their padded and census copies,
+# the kernels' maps, the checks' masks), from peak RSS measured on 4000-wide pairs with a
+# margin; tests/library/test_tiled.py checks a real run against the limit.
+PASS1_BYTES = {"base": 48, "census": 24, "right_map": 8, "extras": 32, "xsobel": 24,
+               "texture": 32, "colour": 40}
+# And in the second pass: the map, the speckle filter's labels, stack and members, the
+# median's output, the confidence.
+PASS2_BYTES = {"base": 16, "speckle": 26, "median": 4, "confidence": 8}
+
+
+class MemoryLimitError(ValueError):
+    """The memory limit is below what one stripe needs; the message says how much."""
+
+
+@dataclass
+class Plan:
+    """How a pair is cut: core stripes of ``stripe_rows`` rows (the last may be shorter),
+    each read with ``row_overlap`` input rows and ``filter_overlap`` map rows beyond, and
+    at least ``window`` input rows (the kernels' minimum)."""
+
+    height: int
+    width: int
+    stripe_rows: int
+    row_overlap: int
+    filter_overlap: int
+    bytes_per_stripe: int
+    window: int = 1
+
+    @property
+    def stripes(self):
+        """[(start, stop)] of the core stripes, top to bottom."""
+        return [(s, min(s + self.stripe_rows, self.height))
+                for s in range(0, self.height, self.stripe_rows)]
+
+    @property
+    def overhead(self):
+        """Extra rows matched for the overlaps, as a share of the image's rows."""
+        band = sum(b1 - b0 for b0, b1 in (input_band(s, self) for s in self.stripes))
+        return band / self.height - 1.0
+
+
+def parse_size(text):
+    """Bytes from "512MB", "2GiB", "1.5G" or a number of bytes; ValueError otherwise."""
+    if isinstance(text, (int, float)) and not isinstance(text, bool):
+        return int(text)
+    match = re.fullmatch(r"\s*([0-9]*\.?[0-9]+)\s*([kKmMgGtT]?)(i?)[bB]?\s*", str(text))
+    if not match:
+        raise ValueError(f"memory limit must be a size such as 512MB or 2GiB, got {text!r}")
+    number, unit, binary = match.groups()
+    base = 1024 if binary or not unit else 1000
+    power = " KMGT".index(unit.upper()) if unit else 0
+    return int(float(number) * base ** power)
+
+
+def _mb(n):
+    return f"{math.ceil(n / 2**20)} MiB"
+
+
+def stripe_bytes(opts, width, dmin, dmax, threads, colour=False):
+    """(bytes per band row in pass 1, bytes per band row in pass 2, fixed bytes): the
+    memory model the plan follows.  The fixed part is the fast engine's per-thread cost
+    columns, (W + window) x (D + 1) accumulators of up to 8 bytes."""
+    st = stages(opts)
+    p1 = PASS1_BYTES["base"]
+    p1 += PASS1_BYTES["census"] if opts["cost"] == "census" else 0
+    p1 += PASS1_BYTES["right_map"] if st["lr_check"] is not None else 0
+    p1 += PASS1_BYTES["extras"] if (st["uniqueness_ratio"] is not None
+                                    or st["subpixel"] != "none") else 0
+    p1 += PASS1_BYTES["xsobel"] if st["prefilter"] == "xsobel" else 0
+    p1 += PASS1_BYTES["texture"] if st["texture_threshold"] is not None else 0
+    p1 += PASS1_BYTES["colour"] if colour else 0
+    p2 = PASS2_BYTES["base"] + PASS2_BYTES["confidence"]
+    p2 += PASS2_BYTES["speckle"] if st["speckle_size"] > 0 else 0
+    p2 += PASS2_BYTES["median"] if st["median"] else 0
+    ndisp = dmax - dmin + 1
+    fixed = threads * (width + opts["window"]) * (ndisp + 1) * 8 \
+        if opts["engine"] == "fast" else threads * (width + ndisp) * 32
+    return p1 * width, p2 * width, fixed
+
+
+def plan(height, width, opts, memory_limit=None, stripe_rows=None, threads=None,
+         colour=False, resident=0):
+    """The stripes for a pair under a memory limit (bytes for the stripes' working data,
+    on top of the process itself), or of ``stripe_rows`` rows when given.  colour: the
+    sources convert colour rows; resident: bytes the sources hold throughout.
+    MemoryLimitError when one stripe of the smallest useful height does not fit."""
+    memory_limit = DEFAULT_MEMORY_LIMIT if memory_limit is None else memory_limit
+    st = stages(opts)
+    over = row_overlap(st, opts["window"], opts["cost"])
+    fover = filter_overlap(st)
+    threads = threads or kernels.contract.thread_count(opts["threads"]).n
+    per_row1, per_row2, fixed = stripe_bytes(opts, width, opts["dmin"], opts["dmax"],
+                                             threads, colour)
+    fixed += resident
+
+    # Writing the output reads the stores TIFF_TILE rows at a time, with a padded copy
+    # and the invalid-value conversion beside them.
+    writing = resident + 4 * TIFF_TILE * width * 4
+
+    def need(rows):  # peak bytes of a stripe of ``rows`` core rows
+        band1 = min(height, rows + 2 * over)
+        band2 = min(height, rows + 2 * fover) if fover else 0
+        return max(fixed + per_row1 * band1, resident + per_row2 * band2, writing)
+
+    smallest = min(height, opts["window"])
+    if stripe_rows is None:
+        if need(smallest) > memory_limit:
+            raise MemoryLimitError(
+                f"a memory limit of {_mb(memory_limit)} is below what one stripe needs "
+                f"({_mb(need(smallest))} for a {width}-pixel-wide pair with these options); "
+                f"raise the memory limit to at least that")
+        rows, most = smallest, height  # the tallest stripe that fits: need() only grows
+        while rows < most:
+            middle = (rows + most + 1) // 2
+            rows, most = (middle, most) if need(middle) <= memory_limit else (rows, middle - 1)
+    else:
+        rows = int(stripe_rows)
+        if rows < 1:
+            raise ValueError(f"stripe_rows must be at least 1, got {rows}")
+        rows = min(rows, height)
+    return Plan(height, width, rows, over, fover, need(rows), opts["window"])
+
+
+def too_big_for_whole(left, opts, memory_limit=None):
+    """Whether matching the pair whole with the resolved options ``opts`` would need more
+    than ``memory_limit`` (default: DEFAULT_MEMORY_LIMIT), by the stripes' memory model
+    for one stripe the image's height; reads only the header of ``left`` (a path)."""
+    memory_limit = DEFAULT_MEMORY_LIMIT if memory_limit is None else memory_limit
+    source = open_source(left, "left", probe=False)
+    height, width = source.shape
+    whole = plan(height, width, opts, stripe_rows=height, colour=source.colour)
+    return whole.bytes_per_stripe > memory_limit
+
+
+def input_band(stripe, plan):
+    """(first, end) input rows that stripe (start, stop) is matched from: the overlap each
+    side, within the image, grown to at least one window (the kernels refuse fewer rows;
+    rows beyond the overlap change nothing, they are only more context)."""
+    start, stop = stripe
+    first = max(0, start - plan.row_overlap)
+    end = min(plan.height, stop + plan.row_overlap)
+    while end - first < min(plan.window, plan.height):
+        first, end = max(0, first - 1), min(plan.height, end + 1)
+    return first, end
+
+
+def map_band(stripe, plan):
+    """(first, end) rows of the first pass's map that the 2-D filters read for a stripe."""
+    start, stop = stripe
+    return max(0, start - plan.filter_overlap), min(plan.height, stop + plan.filter_overlap)
+
+

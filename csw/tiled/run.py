@@ -1,0 +1,216 @@
+"""``csw.match_tiled``: one pair matched stripe by stripe, so memory follows the stripe,
+not the image; the maps equal :func:`csw.match`'s bit for bit.
+
+Every stripe is a task (:mod:`.tasks`), run through :func:`csw.executor.run_tasks`: here
+one after another (each uses all of Numba's threads over its rows), or on a Dask
+cluster.  The maps go to temporary zarr stores beside the output (so cluster workers that
+can write the output can write them), and the outputs are then written from the stores a
+stripe at a time, in the formats of csw.io.formats, and renamed into place together.
+"""
+
+import os
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..executor import progress_bar, run_tasks
+from ..io.atomic import TMP_PREFIX, atomic_write_all
+from ..io.formats import check_range, format_of, preview_stripes, stripe_writer
+from ..io.sources import open_source
+from ..params import resolve
+from ..pipeline import is_row_local, match_rows
+from ..prepare import prepare
+from .plan import Plan, input_band, map_band, parse_size, plan
+from .tasks import create_store, filter_stripe, match_stripe, store_blocks
+
+
+@dataclass
+class TiledResult:
+    """What :func:`match_tiled` returns (the maps themselves are in the output files).
+
+    tasks: the stripe tasks' counters summed over both passes: ``count``, ``seconds``
+    (compute, as the tasks measured it), ``bytes_read`` and ``bytes_written`` (decoded
+    pixels and float32 maps moved between the files and the tasks).
+    """
+
+    output: Path
+    shape: tuple
+    plan: Plan
+    evaluated: int
+    candidates: int
+    settings: dict = field(default_factory=dict)
+    seconds: float = 0.0
+    compile_seconds: float = 0.0
+    invalid: int = 0
+    confidence: Path | None = None
+    tasks: dict = field(default_factory=dict)
+
+    @property
+    def stripes(self):
+        """How many stripes the pair was cut into."""
+        return len(self.plan.stripes)
+
+    @property
+    def invalid_share(self):
+        """Share (0..1) of pixels without a disparity."""
+        return self.invalid / max(self.shape[0] * self.shape[1], 1)
+
+    @property
+    def work_saved(self):
+        return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
+
+
+def match_tiled(left, right, output, *, confidence=None, preview=None, memory_limit=None,
+                stripe_rows=None, client=None, progress=False, **options):
+    """Match a pair stripe by stripe and write the map to ``output``; the result equals
+    :func:`csw.match`'s bit for bit, for every preset and stage.
+
+    Parameters
+    ----------
+    left, right : path or array
+        TIFF/BigTIFF, .npy and .zarr are read by rows; other formats are decoded whole.
+        Arrays (numpy, memmap, zarr) are sliced.  With a client, give paths that the
+        workers can read.
+    output : path
+        .tif/.tiff (tiled float32, NaN invalid), .zarr, .pfm, .npy or .png.
+    confidence : path, optional
+        Also write the confidence map (formats as ``output``, save .png).
+    preview : path, optional
+        Also write an 8-bit colour PNG of the map (invalid black).
+    memory_limit : int or str, optional
+        The stripes' working memory per process ("512MB", "2GiB"; default 512 MiB); the
+        stripe height follows it.  The process itself adds about 200 MB.
+    stripe_rows : int, optional
+        Cut stripes of this many rows instead.
+    client : dask.distributed.Client, optional
+        Run the stripes as tasks on this cluster; the output's folder must be one the
+        workers can write.
+    progress : bool
+        A progress bar over the stripes, on stderr.
+    **options
+        Matching options, as for :func:`csw.match`.
+
+    Returns
+    -------
+    TiledResult
+    """
+    opts = resolve(**options)
+    output = Path(output)
+    format_of(output, "stripes")
+    check_range(output, opts["dmax"])
+    if confidence is not None:
+        format_of(confidence, "confidence")
+    if client is not None and not all(isinstance(p, (str, Path)) for p in (left, right)):
+        raise ValueError("on a cluster, give left and right as paths the workers can read")
+    limit = parse_size(memory_limit) if memory_limit is not None else None
+    left, right = open_source(left, "left"), open_source(right, "right")
+    height, width = left.shape
+    layout = []  # the plan, once made: tau auto samples each row from its own band
+
+    def make_plan():
+        layout.append(plan(height, width, opts, limit, stripe_rows,
+                           colour=left.colour or right.colour,
+                           resident=left.resident_bytes + right.resident_bytes))
+        return layout[0]
+
+    def sample_min_cost(args, stages, rows):
+        found = []
+        for y in rows:
+            first, end = input_band((y, y + 1), layout[0])
+            a, b = left.rows(first, end), right.rows(first, end)
+            found.append(match_rows(a, b, dict(args, rows=np.array([y - first])),
+                                    stages)[2].min_cost)
+        return np.vstack(found)
+
+    ready = prepare(opts, (height, width), left.dtype, right=(right.shape, right.dtype),
+                    sample_min_cost=sample_min_cost, make_plan=make_plan)
+    layout = ready.plan
+    start_time = time.perf_counter()
+    totals = _run_passes(left, right, output, confidence, preview, layout, ready.args,
+                         ready.stages, client, progress)
+    return TiledResult(output, (height, width), layout, totals.pop("evaluated"),
+                       totals.pop("candidates"), ready.settings,
+                       time.perf_counter() - start_time, ready.compile_seconds,
+                       totals.pop("invalid"),
+                       Path(confidence) if confidence is not None else None, totals)
+
+
+def _run_passes(left, right, output, confidence, preview, layout, args, st, client,
+                progress):
+    """Both passes into temporary stores beside the output, then the outputs; the
+    temporary stores are removed whatever happens."""
+    folder = output.parent if str(output.parent) else Path(".")
+    work = Path(tempfile.mkdtemp(prefix=f"{TMP_PREFIX}{output.name}.", suffix=".tmp",
+                                 dir=folder))
+    try:
+        shape = (layout.height, layout.width)
+        rows = layout.stripe_rows
+        two_pass = not is_row_local(st)
+        final = {"disparity": create_store(work / "disparity.zarr", shape, rows,
+                                           output.suffix.lower() == ".zarr")}
+        if confidence is not None:
+            final["confidence"] = create_store(work / "confidence.zarr", shape, rows,
+                                               Path(confidence).suffix.lower() == ".zarr")
+        stage = {}
+        if two_pass:
+            stage["disparity"] = create_store(work / "stage.zarr", shape, rows, False)
+            if confidence is not None:
+                stage["confidence"] = create_store(work / "stage-confidence.zarr", shape,
+                                                   rows, False)
+        first_into = stage if two_pass else final
+        pass1 = [{"stripe": s, "band": input_band(s, layout),
+                  "left": left, "right": right, "kernel_args": args, "stages": st,
+                  "confidence": confidence is not None,
+                  "disparity": first_into["disparity"],
+                  "confidence_store": first_into.get("confidence")} for s in layout.stripes]
+        pass2 = [{"stripe": s, "band": map_band(s, layout), "stages": st,
+                  "stage": stage["disparity"], "stage_confidence": stage.get("confidence"),
+                  "disparity": final["disparity"],
+                  "confidence_store": final.get("confidence")}
+                 for s in layout.stripes] if two_pass else []
+        totals = {"evaluated": 0, "candidates": 0, "invalid": 0, "count": 0, "seconds": 0.0,
+                  "bytes_read": 0, "bytes_written": 0}
+        with progress_bar(len(pass1) + len(pass2), "csw match (stripes)", "stripe",
+                          progress) as bar:
+            for function, tasks in ((match_stripe, pass1), (filter_stripe, pass2)):
+                for _, counts in run_tasks(function, tasks, client):
+                    for key, value in counts.items():
+                        totals[key] += value
+                    totals["count"] += 1
+                    bar.update()
+        # Every file is written before any is renamed into place: all of them or none.
+        items = []
+        if preview is not None:
+            items.append((Path(preview), preview_stripes(
+                shape, store_blocks(final["disparity"]), args["dmax"])))
+        stores = ((output, final["disparity"]), (confidence, final.get("confidence")))
+        for path, store in stores:
+            if path is not None and Path(path).suffix.lower() != ".zarr":
+                items.append((Path(path), stripe_writer(path, shape, store_blocks(store))))
+        atomic_write_all(items)
+        for path, store in stores:
+            if path is not None and Path(path).suffix.lower() == ".zarr":
+                _replace_dir(store, path)
+        return totals
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def _replace_dir(tmp, path):
+    """Put folder ``tmp`` at ``path``, replacing an earlier zarr store there."""
+    path = Path(path)
+    old = None
+    if path.exists():
+        if not (path / "zarr.json").exists():
+            raise ValueError(f"{path} exists and is not a zarr store; csw won't replace it")
+        old = path.with_name(f"{TMP_PREFIX}{path.name}.old")
+        shutil.rmtree(old, ignore_errors=True)
+        os.replace(path, old)
+    os.replace(tmp, path)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+

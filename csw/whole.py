@@ -1,0 +1,139 @@
+"""``csw.match``: one rectified pair in memory, a disparity map and what goes with it out.
+
+Pairs bigger than memory go through :mod:`csw.tiled`; :func:`csw.files.match_files`
+chooses between the two for files.  Both prepare through :mod:`csw.prepare`.
+"""
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .io.images import read_image, to_gray
+from .params import resolve
+from .pipeline import match_rows
+from .pipeline import run as run_pipeline
+from .prepare import prepare
+
+
+@dataclass
+class Result:
+    """What :func:`match` returns.
+
+    disparity: float32 (H, W), the disparity (subpixel where asked), NaN where invalid (no
+        candidate, or refused by a validity stage or filter).
+    confidence: float32 (H, W), 0..1: (second - best) / second of the costs, 0 where
+        invalid (all 0 unless the second-best costs were computed: see ``match``).
+    min_cost:  int64 (H, W), the minimum cost m at the chosen d, -1 where no candidate.
+    evaluated: candidates (pixel, d) whose cost was evaluated.
+    candidates: candidates plain matching evaluates, so ``work_saved`` is CSW's share.
+    settings: every option as used, with ``tau`` resolved to a number (-1 when CSW is
+        off) and ``tau_source`` saying where it came from.
+    seconds: the match itself; compile_seconds: JIT compile or cache load before it.
+    """
+
+    disparity: np.ndarray
+    confidence: np.ndarray
+    min_cost: np.ndarray
+    evaluated: int
+    candidates: int
+    settings: dict = field(default_factory=dict)
+    seconds: float = 0.0
+    compile_seconds: float = 0.0
+    stripes = None  # matched whole (csw.tiled's results give their stripe count)
+
+    @property
+    def shape(self):
+        return self.disparity.shape
+
+    @property
+    def valid(self):
+        """bool (H, W): where a disparity was found."""
+        return np.isfinite(self.disparity)
+
+    @property
+    def work_saved(self):
+        """Share (0..1) of plain matching's candidate costs that CSW skipped."""
+        return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
+
+    @property
+    def invalid_share(self):
+        """Share (0..1) of pixels without a disparity."""
+        return float(np.mean(~self.valid)) if self.disparity.size else 0.0
+
+
+def as_gray(image, name):
+    """A path, or a (H, W) / (H, W, 3|4) uint8/uint16 array -> uint8/uint16 (H, W)."""
+    if isinstance(image, (str, Path)):
+        return read_image(image)
+    image = np.asarray(image)
+    if image.dtype not in (np.uint8, np.uint16):
+        raise ValueError(f"{name} image must be uint8 or uint16, got {image.dtype}; change the "
+                         "dtype with .astype(np.uint8) or .astype(np.uint16)")
+    return to_gray(image, name)
+
+
+def match(left, right, want_confidence=False, **options):
+    """Match a rectified pair; left is the reference.
+
+    Parameters
+    ----------
+    left, right : path or ndarray
+        Image files, or uint8/uint16 arrays (H, W) or (H, W, 3|4); colour is converted to
+        gray with the ITU-R 601-2 luma, as ``csw match`` does.
+    preset : {"accurate", "raw", "paper"}
+        A named set of the options below (see :data:`csw.params.PRESETS`); options given
+        explicitly override it.  "paper" takes no stage.
+    engine : {"fast", "window"}
+        Running sums, or a full window sum per candidate (the paper's method).  Both give
+        identical results.
+    cost : {"sad", "ssd", "shd", "census"}
+        Census compares census codes (``census_window`` square) by Hamming distance.
+    window : int
+        Odd window side.
+    dmin, dmax : int
+        The disparity range searched.
+    csw : bool
+        Skip right pixels already claimed by a confident match on the row.
+    csw_rule : {"literal", "unique"}
+    tau : float, "auto" or "none", optional
+        CSW's cost threshold; default: auto for the literal rule, none for the unique rule.
+    uniqueness : int, optional
+        The unique rule's margin in percent (default 12; 25 for SSD).
+    threads : int, optional
+        Threads (default: all cores).
+    prefilter, prefilter_cap, census_window, lr_check, uniqueness_ratio,
+    texture_threshold, subpixel, speckle_size, speckle_range, median, fill
+        The pipeline's stages (see :mod:`csw.pipeline`); ``lr_check``,
+        ``uniqueness_ratio`` and ``texture_threshold`` take a number or "off" (None).
+    want_confidence : bool
+        Compute the confidence map even when no stage needs the second-best costs.
+
+    Every option's default, allowed values and help are in :data:`csw.params.OPTIONS`.
+
+    Returns
+    -------
+    Result
+
+    Raises
+    ------
+    ValueError
+        On bad input, with a message that says how to fix it.
+    TypeError
+        On an unknown option name.
+    """
+    opts = resolve(**options)
+    left, right = as_gray(left, "left"), as_gray(right, "right")
+
+    def sample_min_cost(args, stages, rows):
+        return match_rows(left, right, dict(args, rows=rows), stages)[2].min_cost
+
+    ready = prepare(opts, left.shape, left.dtype, right=(right.shape, right.dtype),
+                    sample_min_cost=sample_min_cost)
+    start = time.perf_counter()
+    disparity, confidence, raw = run_pipeline(left, right, ready.args, ready.stages,
+                                              confidence=want_confidence)
+    seconds = time.perf_counter() - start
+    return Result(disparity, confidence, raw.min_cost, raw.evaluated, raw.candidates,
+                  ready.settings, seconds, ready.compile_seconds)

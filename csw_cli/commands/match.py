@@ -1,0 +1,191 @@
+"""``csw match``: one rectified pair in, one disparity map out; or many pairs into a folder."""
+
+from pathlib import Path
+
+import click
+
+from csw.io.formats import suffixes
+
+from .. import options as opt
+
+# The matching options csw match passes on when given (the library fills in the rest).
+MATCH_OPTIONS = ["preset", "engine", "cost", "window", "dmin", "dmax", "csw", "csw_rule",
+                 "tau", "uniqueness", "threads", *opt.params.OFF]
+
+
+def summary_line(result):
+    """The one line ``csw match`` prints on stderr about a match."""
+    from csw.tau import tau_label
+
+    s = result.settings
+    height, width = result.shape
+    tau_note = " (auto)" if s["tau_source"] == "auto" else ""
+    mode = (f"CSW {s['csw_rule']} tau={tau_label(s['tau'])}{tau_note}" if s["csw"]
+            else "plain")
+    stripes = f", {result.stripes} stripe(s)" if result.stripes else ""
+    return (f"{width}x{height} d {s['dmin']}..{s['dmax']} {s['cost'].upper()} "
+            f"{s['window']}x{s['window']} {mode}, preset {s['preset']} "
+            f"({s['engine']} engine{stripes}): "
+            f"{result.seconds:.3f} s (compile {result.compile_seconds:.2f} s), evaluated "
+            f"{100.0 * result.evaluated / max(result.candidates, 1):.1f}% of candidates, "
+            f"invalid {100.0 * result.invalid_share:.1f}%")
+
+
+def write_error(exc):
+    """The one-line error (exit 1) for an OSError while writing."""
+    where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+    return click.ClickException(f"can't write{where}: {exc.strerror or exc}")
+
+
+def memory_size(ctx, param, value):
+    from csw.tiled import parse_size
+
+    if value is None:
+        return None
+    try:
+        size = parse_size(value)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc)) from None
+    if size <= 0:
+        raise click.BadParameter("must be more than 0")
+    return size
+
+
+@click.command(short_help="Compute disparity maps for rectified pairs.")
+@click.argument("left", type=click.Path(), required=False)
+@click.argument("right", type=click.Path(), required=False)
+@click.option("--output", "-o", type=click.Path(),
+              help="Disparity map: .pfm (float32, inf invalid), .png (uint16 d*256, "
+                   "0 invalid, KITTI), .npy (float32, inf invalid), .tif/.tiff (tiled "
+                   "float32, NaN invalid) or .zarr.")
+@click.option("--manifest", type=click.Path(dir_okay=False, exists=True),
+              help="Many pairs: a CSV file of left,right[,name] lines (paths relative to "
+                   "it). Needs --output-dir.")
+@click.option("--output-dir", "-O", type=click.Path(file_okay=False),
+              help="Many pairs: the folder for their maps (NAME.pfm ...) and summary.json. "
+                   "LEFT and RIGHT may then be folders, paired by file name.")
+@click.option("--suffix", type=click.Choice(suffixes("whole")), default=".pfm",
+              show_default=True, help="Many pairs: the format of each map.")
+@click.option("--overwrite/--skip-existing", default=False, show_default=True,
+              help="Many pairs: redo pairs whose map exists (default: skip them, so a rerun "
+                   "resumes).")
+@click.option("--summary", type=click.Path(dir_okay=False),
+              help="Many pairs: where to write the JSON summary [default: "
+                   "OUTPUT_DIR/summary.json].")
+@click.option("--workers", type=click.IntRange(1, 256), default=None,
+              help="Run the pairs (or one pair's stripes) on a Dask cluster of N worker "
+                   "processes started on this machine (needs csw[dask]).")
+@click.option("--scheduler", default=None,
+              help="Run the pairs (or one pair's stripes) on the existing Dask cluster at "
+                   "this address, e.g. tcp://10.0.0.5:8786; its workers must reach the "
+                   "input and output folders.")
+@click.option("--memory-limit", callback=memory_size, default=None,
+              help="One pair, in row stripes that fit this much memory per process "
+                   "(e.g. 512MB, 2GiB; the process adds about 200 MB). Pairs too big for "
+                   "the default, 512MiB, are striped without asking.")
+@opt.option("engine")
+@opt.option("cost")
+@opt.option("window", short="-w")
+@opt.option("dmin")
+@opt.option("dmax")
+@opt.option("csw")
+@opt.option("csw_rule")
+@opt.option("tau")
+@opt.option("uniqueness")
+@opt.option("threads", short="-j")
+@click.option("--preview", type=click.Path(dir_okay=False),
+              help="Also write an 8-bit colour PNG of the map (invalid black).")
+@click.option("--cost-map", type=click.Path(dir_okay=False),
+              help="Also write the minimum-cost map m as PFM (inf where invalid).")
+@click.option("--confidence", type=click.Path(dir_okay=False),
+              help="Also write the confidence (0..1: how much the best cost beats the "
+                   "second best) as PFM (or .npy, .tif, .zarr).")
+@opt.stage_options()
+@click.pass_context
+def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, summary, workers,
+          scheduler, memory_limit, preview, cost_map, confidence, **_):
+    """Match LEFT against RIGHT (left is the reference) and write the disparity map.
+
+    The match of left pixel x is right pixel x - d, for d in [DMIN, DMAX].  With --csw,
+    each row keeps a map of right pixels already claimed by a match whose cost is at most
+    TAU, and later searches on the row skip them.
+
+    The default preset, accurate, matches census codes and leaves invalid the pixels the
+    left-right check or the speckle filter refuses (add --fill background for a dense
+    map); --preset raw gives the contract's dense winner-take-all map.
+
+    Many pairs: give two folders (pairs by file name) or --manifest, and --output-dir.
+    A pair that fails is reported and the others go on; the exit code is 1 if any failed.
+
+    \b
+    Examples:
+      csw match left.png right.png -o disp.pfm --dmax 64
+      csw match left.png right.png -o disp.pfm --subpixel linear --fill background
+      csw match left.png right.png -o disp.png --preset raw --csw --tau auto
+      csw match lefts/ rights/ --output-dir maps/ --dmax 128
+      csw match --manifest pairs.csv -O maps/ --suffix .png
+      csw match lefts/ rights/ -O maps/ --workers 2
+      csw match big_left.tif big_right.tif -o disp.tif --memory-limit 1GiB
+    """
+    from csw import params
+
+    settings = opt.given(ctx, MATCH_OPTIONS)
+    with opt.library_errors():
+        params.resolve(**settings)  # a bad option fails before any file is read
+    many = manifest is not None or output_dir is not None or \
+        (left is not None and Path(left).is_dir())
+    if many:
+        if output or preview or cost_map or confidence or memory_limit:
+            raise click.UsageError("-o, --preview, --cost-map, --confidence and "
+                                   "--memory-limit are for one pair; many pairs write into "
+                                   "--output-dir")
+        if bool(manifest) == (left is not None):
+            raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")
+        if left is not None and (right is None or not Path(right).is_dir()):
+            raise click.UsageError("with a LEFT folder, RIGHT must be a folder too")
+        return match_batch(left, right, manifest, output_dir, suffix, overwrite, summary,
+                           settings, workers, scheduler)
+    if left is None or right is None:
+        raise click.UsageError("give LEFT and RIGHT images (or folders with --output-dir)")
+    if output is None:
+        raise click.UsageError("give -o/--output FILE for the disparity map")
+    from csw import match_files
+    from csw.distributed import cluster
+
+    try:
+        with opt.library_errors(), cluster(workers, scheduler) as client:
+            result = match_files(left, right, output, confidence=confidence, preview=preview,
+                                 cost_map=cost_map, memory_limit=memory_limit, client=client,
+                                 progress=True, **settings)
+    except OSError as exc:
+        raise write_error(exc) from None
+    click.echo(summary_line(result), err=True)
+
+
+def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, settings,
+                workers=None, scheduler=None):
+    """The batch form: pairs from two folders or a manifest, into OUTPUT_DIR."""
+    from csw import jobs_from_folders, jobs_from_manifest, match_many
+    from csw.distributed import cluster
+
+    if output_dir is None:
+        raise click.UsageError("matching many pairs needs --output-dir DIR")
+    out = Path(output_dir)
+    if not out.is_dir():
+        raise click.BadParameter(f"folder {output_dir!r} does not exist; create it first",
+                                 param_hint="--output-dir")
+    with opt.library_errors("--manifest" if manifest else "LEFT"):
+        jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left, right)
+    with opt.library_errors(), cluster(workers, scheduler) as client:
+        report = match_many(jobs, out, suffix=suffix, overwrite=overwrite, progress=True,
+                            summary=summary, client=client, **settings)
+    counts = report["counts"]
+    summary_path = summary or out / "summary.json"
+    click.echo(f"{counts['ok']} matched, {counts['skipped']} skipped (output exists; "
+               f"--overwrite redoes them), {counts['failed']} failed; summary in "
+               f"{summary_path}", err=True)
+    for entry in report["pairs"]:
+        if entry["status"] == "failed":
+            click.echo(f"failed: {entry['name']}: {entry['error']}", err=True)
+    if counts["failed"]:
+        raise SystemExit(1)
