@@ -50,6 +50,17 @@ def box_sum(values, window):
             - c[window:window + height, :width] + c[:height, :width])
 
 
+def entries(args, stages, dtype, confidence=False):
+    """The compiled kernel entries (csw.kernels.native) a run of the pipeline with these
+    kernel arguments and stages loads, for images of ``dtype``."""
+    from .kernels.filters import entries as filter_entries
+
+    return kernels.entries(args["engine"], args["cost"], dtype, args["window"],
+                           stages["census_window"], args.get("csw", False),
+                           stages["lr_check"] is not None,
+                           confidence or needs_extras(stages)) + filter_entries(stages)
+
+
 def needs_extras(stages):
     """Whether the kernels must return the second-best and neighbour costs."""
     return stages["uniqueness_ratio"] is not None or stages["subpixel"] != "none"

@@ -3,13 +3,12 @@
 with the kernels' own rules, compile (or load) the kernels, and resolve tau.
 """
 
-import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import kernels, params
-from .pipeline import run as run_pipeline
+from .pipeline import entries
 from .tau import resolve_tau, sample_rows
 
 
@@ -32,7 +31,8 @@ class Prepared:
     plan: object = None
 
 
-def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None):
+def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None,
+            confidence=False):
     """Prepare a match of a pair of ``shape`` (H, W) and ``dtype``.
 
     opts: the resolved options (csw.params.resolve: the callers resolve them before
@@ -41,7 +41,8 @@ def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None
     plain matching's min-cost rows (int64 (n, W)) for the rows tau auto samples
     (csw.tau.sample_rows), matched with ``stages``; called only when tau resolves to auto.
     make_plan(): how the match will run (csw.tiled's stripes), made once the pair is
-    checked and before anything compiles; its result is ``Prepared.plan``.
+    checked and before anything compiles; its result is ``Prepared.plan``.  confidence:
+    the run computes the confidence map (its kernels make the second-best costs).
     Raises ValueError, saying how to fix it, on any bad option or pair.
     """
     if right is not None:
@@ -50,13 +51,13 @@ def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None
     # The kernels' own checks, once, on a stand-in as wide as the pair and one window
     # tall (their rules on the window, range and cost don't depend on the pixels).
     stand_in = np.zeros((min(height, opts["window"]), width), dtype)
-    _, _, setup, _ = kernels.contract.validate(
+    kernels.contract.validate(
         stand_in, stand_in, window=opts["window"], dmin=opts["dmin"], dmax=opts["dmax"],
         cost=opts["cost"], csw=False, tau=-1, rule=opts["csw_rule"],
         uniqueness=opts["uniqueness"], census_window=opts["census_window"])
     stages = params.stages(opts)
     layout = make_plan() if make_plan is not None else None
-    compile_s = warm_up(opts["engine"], opts["cost"], setup.window, dtype, stages)
+    compile_s = load_kernels(opts, stages, dtype, confidence)
     args = params.kernel_args(opts)
     tau, source = -1.0, "off"
     if opts["csw"]:
@@ -73,17 +74,44 @@ def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None
                     layout)
 
 
-def warm_up(engine, cost, window, dtype=np.uint8, stages=None):
-    """Compile (or load from the cache) the kernels that a match with these settings runs,
-    on a tiny pair of the same dtype and window (the fast engine's accumulator type
-    depends on both, and the census codes' type on the census window); return the
-    seconds taken."""
-    stages = dict(params.OFF, **(stages or {}))
-    side = max(window, 8)
-    tiny = np.zeros((side, side + 1), dtype)
-    args = dict(engine=engine, window=window, dmin=0, dmax=1, cost=cost)
-    start = time.perf_counter()
-    for csw in (False, True):
-        run_pipeline(tiny, tiny, dict(args, csw=csw, tau=0), stages, confidence=True)
-    run_pipeline(tiny, tiny, dict(args, rows=np.array([0])), params.OFF)  # tau auto's sample
-    return time.perf_counter() - start
+def load_kernels(opts, stages, dtype, confidence=False):
+    """Load (compiling once, if need be) every kernel entry a match with these options
+    runs, including tau auto's plain sample; return the seconds taken."""
+    args = params.kernel_args(opts)
+    wanted = entries(dict(args, csw=opts["csw"]), stages, dtype, confidence)
+    if opts["csw"]:  # tau's sample: plain matching with the stages that shape the costs
+        wanted += entries(dict(args, csw=False), dict(params.OFF, census_window=stages[
+            "census_window"]), dtype)
+    return kernels.native.ensure(wanted)
+
+
+def preset_entries(presets=None):
+    """Every kernel entry the presets run, plain and with CSW, for 8- and 16-bit images:
+    what ``csw compile`` puts in the cache."""
+    wanted = []
+    for preset in presets or params.PRESETS:
+        for csw in (False, True):
+            opts = params.resolve(preset=preset, csw=csw)
+            for dtype in (np.uint8, np.uint16):
+                args = dict(params.kernel_args(opts), csw=csw)
+                stages = params.stages(opts)
+                wanted += entries(args, stages, np.dtype(dtype))
+                if csw:  # tau auto's plain sample
+                    wanted += entries(dict(args, csw=False), dict(
+                        params.OFF, census_window=stages["census_window"]), np.dtype(dtype))
+    return list(dict.fromkeys((k, tuple(v)) for k, v in wanted))
+
+
+def compile_kernels(presets=None, progress=None):
+    """Compile every kernel entry the presets run into the kernel cache (see
+    :func:`preset_entries`), so that later runs, here or on a machine that shares the
+    cache, load them at once.  progress(key, compiled) is called for each entry.
+    Returns (entries compiled, entries already there, seconds)."""
+    from .kernels import native
+
+    wanted = preset_entries(presets)
+    before = native.STATS["compiled"]
+    native.clear()  # so that entries loaded earlier in this process are counted too
+    seconds = native.ensure(wanted, progress, notice=progress is None)
+    compiled = native.STATS["compiled"] - before
+    return compiled, len(wanted) - compiled, seconds

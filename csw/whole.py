@@ -130,7 +130,7 @@ def match(left, right, want_confidence=False, **options):
         return match_rows(left, right, dict(args, rows=rows), stages)[2].min_cost
 
     ready = prepare(opts, left.shape, left.dtype, right=(right.shape, right.dtype),
-                    sample_min_cost=sample_min_cost)
+                    sample_min_cost=sample_min_cost, confidence=want_confidence)
     start = time.perf_counter()
     disparity, confidence, raw = run_pipeline(left, right, ready.args, ready.stages,
                                               confidence=want_confidence)

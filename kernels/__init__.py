@@ -1,4 +1,4 @@
-"""csw's Numba kernels: window matching with and without the Constrained Sliding Window.
+"""csw's kernels: window matching with and without the Constrained Sliding Window.
 
 Installed as ``csw.kernels`` (the folder is ``kernels/`` in the source tree). Engines are
 siblings that compute one contract (see docs/engines.md, "The matching contract"):
@@ -6,23 +6,54 @@ siblings that compute one contract (see docs/engines.md, "The matching contract"
   fast    running sums, O(1) per (pixel, disparity), after OpenCV's StereoBM (.fast)
 
 These are the bare kernels: every matching parameter is given explicitly.  ``csw.match``
-is the entry with the user-facing defaults.
+is the entry with the user-facing defaults.  The Numba code is in ``jit/``; each entry is
+compiled once per CPU and loaded without Numba (``native``).  Nothing here imports Numba
+until something must be compiled.
 """
 
-from . import contract
+from . import contract, native
 from .contract import COSTS, ENGINE_NAMES, INVALID, RULES, MatchResult, candidate_count
-from .fast import match_fast
-from .window import match_window
 
-ENGINES = dict(zip(ENGINE_NAMES, (match_fast, match_window), strict=True))
+
+def _engines():
+    from .fast import match_fast
+    from .window import match_window
+
+    return dict(zip(ENGINE_NAMES, (match_fast, match_window), strict=True))
 
 
 def match(left, right, *, engine, **options):
     """Match with the named engine; options as for :func:`.window.match_window`."""
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
-    return ENGINES[engine](left, right, **options)
+    if engine not in ENGINE_NAMES:
+        raise ValueError(f"engine must be one of {', '.join(ENGINE_NAMES)}, got {engine!r}")
+    return _engines()[engine](left, right, **options)
 
 
-__all__ = ["COSTS", "ENGINES", "INVALID", "RULES", "MatchResult", "candidate_count", "contract",
-           "match", "match_fast", "match_window"]
+def entries(engine, cost, pixels, window, census_window, csw, right_map, extras):
+    """The compiled entries (kernels/native.py) a match with these settings loads: its
+    census transform, if any, and its engine's variant."""
+    from . import census, fast
+    from . import window as window_engine
+    from .contract import COSTS, SHD
+
+    code = COSTS[cost]
+    compared = pixels
+    if cost == "census":
+        compared, code = contract.census_dtype(census_window), SHD
+    module = fast if engine == "fast" else window_engine
+    return census.entries(pixels, cost, census_window) + \
+        module.entries(code, compared, window, csw, right_map, extras)
+
+
+def __getattr__(name):
+    """The engines' entries on first use (they import numpy only)."""
+    if name == "ENGINES":
+        return _engines()
+    if name in ("match_fast", "match_window"):
+        return _engines()[name.split("_")[1]]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ = ["COSTS", "ENGINES", "ENGINE_NAMES", "INVALID", "RULES", "MatchResult",
+           "candidate_count", "contract", "entries", "match", "match_fast", "match_window",
+           "native"]

@@ -7,48 +7,59 @@ pixel's value, as in the matching contract.  Matching census codes with SHD (Ham
 distance summed over the matching window) is the census cost.
 
 Layers:
-  census_transform   public: validate, pad, allocate
-  _census_driver     parallel over rows; each row writes only its own codes
+  census_transform   public: pad, allocate, run the stripes of rows in parallel
+  jit/census.py      the worker over a stripe of rows
 """
 
 import numpy as np
-from numba import njit, prange
 
-from .config import PARALLEL
-from .contract import census_dtype
-
-
-@njit(**PARALLEL)
-def _census_driver(image_p, size, codes):
-    """image_p: uint8/uint16 (H + size - 1, W + size - 1), edge-padded by size // 2.
-    codes: (H, W) out, of the code dtype (census_dtype(size)).
-
-    Each row is built one neighbour at a time across the whole row (shift in one bit per
-    pixel), so the loop over x vectorises instead of running a serial chain per pixel.
-    """
-    h = size // 2
-    height, width = codes.shape
-    one = codes.dtype.type(1)
-    zero = codes.dtype.type(0)
-    for y in prange(height):
-        row = codes[y]
-        row[:] = 0
-        centre = image_p[y + h, h:h + width]
-        for a in range(size):
-            for b in range(size):
-                if a == h and b == h:
-                    continue
-                neighbour = image_p[y + a, b:b + width]
-                for x in range(width):
-                    row[x] = (row[x] << one) | (one if neighbour[x] < centre[x] else zero)
+from . import native, runtime
+from .contract import CENSUS, SHD, census_dtype, dtype_name
 
 
-def census_transform(image, size):
+def variant(pixels, size):
+    """The compiled variant (kernels/native.py) for images of type ``pixels``."""
+    return (dtype_name(pixels), dtype_name(census_dtype(size)))
+
+
+def census_transform(image, size, threads=None, pad=0, reverse=False):
     """Census codes of a uint8/uint16 (H, W) image with a size x size window (odd, 3..7):
-    an (H, W) array of the narrowest unsigned type holding size*size - 1 bits."""
+    an (H, W) array of the narrowest unsigned type holding size*size - 1 bits.
+
+    pad, reverse: the codes edge-padded by ``pad`` on every side, (H + 2 pad, W + 2 pad),
+    and with reverse, their columns reversed: the layouts the engines read, written in
+    place rather than copied."""
     image = np.ascontiguousarray(image)
-    dtype = census_dtype(size)
     padded = np.pad(image, size // 2, mode="edge")
-    codes = np.empty(image.shape, dtype)
-    _census_driver(padded, size, codes)
+    height, width = image.shape
+    codes = np.empty((height + 2 * pad, width + 2 * pad), census_dtype(size))
+    run = native.entry("census", variant(image.dtype, size))
+    n_threads = runtime.thread_count(threads)
+    work = height * width * size * size
+    count = 1 if work < runtime.DIRECT_WORK else min(n_threads, height)
+    edges = np.linspace(0, height, count + 1).round().astype(np.int64)
+
+    def stripe(i, stop):
+        return run([padded, codes, np.empty(width, np.uint8)],
+                   [size, edges[i], edges[i + 1], pad, int(reverse)])
+
+    runtime.run_stripes(stripe, count, count, work)
+    if pad:  # the rows beyond the image: copies of the first and last rows' codes
+        codes[:pad] = codes[pad]
+        codes[height + pad:] = codes[height + pad - 1]
     return codes
+
+
+def prepare(left, right, setup, census_window, threads=None):
+    """The arrays the engines compare, and the Setup they run with: the images, or for
+    the census cost their census codes compared with SHD."""
+    if setup.cost == CENSUS:
+        left = census_transform(left, census_window, threads)
+        right = census_transform(right, census_window, threads)
+        setup = setup._replace(cost=SHD)
+    return left, right, setup
+
+
+def entries(pixels, cost, census_window):
+    """The (kernel, variant) entries a match with this cost loads for its codes."""
+    return [("census", variant(pixels, census_window))] if cost == "census" else []

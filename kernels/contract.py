@@ -5,14 +5,10 @@ contract"). This module holds the part they share: the public names of the costs
 validation that runs once at the door, and the result type.
 """
 
-from concurrent.futures import TimeoutError
 from dataclasses import dataclass
 from typing import NamedTuple
 
-import numba
 import numpy as np
-from numba.core import types
-from numba.extending import intrinsic, overload
 
 # The engines (kernels/__init__.py maps each name to its entry).
 ENGINE_NAMES = ("fast", "window")
@@ -79,8 +75,9 @@ class MatchResult:
 
 
 class Setup(NamedTuple):
-    """The scalar parameters every driver and worker takes, as one record (a Numba
-    named tuple), validated and normalised by :func:`validate`."""
+    """The scalar parameters of a match, as one record, validated and normalised by
+    :func:`validate`; the entries receive them as their int64 scalars, and ``cost``,
+    ``csw``, ``extras`` and ``right_map`` choose the compiled variant."""
 
     window: int
     dmin: int
@@ -93,6 +90,18 @@ class Setup(NamedTuple):
     slack: int  # a claim by pixel x' binds pixel x only when x - x' > slack
     extras: bool  # also compute MatchResult's second/prev/next costs
     right_map: bool  # also compute MatchResult's right_disparity (for the LR check)
+
+
+def dtype_name(dtype):
+    """'u8', 'u16', ... : how kernel variants name pixel and accumulator types."""
+    dtype = np.dtype(dtype)
+    return f"{dtype.kind}{dtype.itemsize * 8}"
+
+
+def dtype_of(name):
+    """The numpy dtype a variant's type name stands for."""
+    kinds = {"u": "uint", "i": "int", "f": "float"}
+    return np.dtype(bool) if name[0] == "b" else np.dtype(kinds[name[0]] + name[1:])
 
 
 def census_dtype(census_window):
@@ -212,103 +221,3 @@ def candidate_count(width, dmin, dmax):
     # Pixel x has the candidates d in [dmin, min(dmax, x)].
     x = np.arange(width)
     return int(np.clip(np.minimum(dmax, x) - dmin + 1, 0, None).sum())
-
-
-class thread_count:
-    """Context manager: run Numba's parallel regions with ``n`` threads (None = all)."""
-
-    def __init__(self, n):
-        limit = numba.config.NUMBA_NUM_THREADS
-        if n is not None and not 1 <= int(n) <= limit:
-            raise ValueError(f"threads must be between 1 and {limit}, got {n}")
-        self.n = limit if n is None else int(n)
-
-    def __enter__(self):
-        self.previous = numba.get_num_threads()
-        numba.set_num_threads(self.n)
-        return self
-
-    def __exit__(self, *exc):
-        numba.set_num_threads(self.previous)
-        return False
-
-
-def stop_requested(stop):
-    """stop[0] != 0.  stop: uint8 (1,), set by another thread to stop a run.  Compiled, it
-    is an atomic load (see _atomic_flag); with NUMBA_DISABLE_JIT, this plain read."""
-    return stop[0] != 0
-
-
-@intrinsic
-def _atomic_flag(typingctx, stop):
-    """stop[0] != 0 read with an atomic load: a plain load of an array the loop never
-    writes may be hoisted out of the loop by LLVM (it was: a stop set mid-run went
-    unseen until the run's end)."""
-    def codegen(context, builder, signature, args):
-        array = context.make_array(signature.args[0])(context, builder, args[0])
-        value = builder.load_atomic(array.data, "monotonic", 1)
-        return builder.icmp_unsigned("!=", value, value.type(0))
-
-    return types.boolean(stop), codegen
-
-
-@overload(stop_requested, inline="always")
-def _stop_requested_compiled(stop):
-    return lambda stop: _atomic_flag(stop)
-
-
-# Runs smaller than this (in pixel-disparity-window operations: about 10 ms) are called
-# directly: starting the worker thread would cost a few percent of them, and a Ctrl-C
-# waits no longer than the run itself.
-DIRECT_WORK = 50_000_000
-
-
-_WORKER = {"pid": None, "executor": None}
-
-
-def _worker():
-    """The one long-lived thread kernels run in: a new thread per call would make OpenMP
-    build a new thread team each time (measured: 9% slower at 2 threads on 1080p).  Kept
-    per process, since a forked child has the object but not the thread."""
-    import os
-    from concurrent.futures import ThreadPoolExecutor
-
-    if _WORKER["pid"] != os.getpid():
-        _WORKER["executor"] = ThreadPoolExecutor(max_workers=1,
-                                                 thread_name_prefix="csw-kernel")
-        _WORKER["pid"] = os.getpid()
-    return _WORKER["executor"]
-
-
-def run_stoppable(call, threads, work=None):
-    """Run ``call(stop, n_threads)`` (a parallel driver) in csw's kernel thread while this
-    thread waits, so that Ctrl-C is acted on at once: Python runs signal handlers only in
-    the main thread, between bytecodes, never inside a compiled kernel.  On
-    KeyboardInterrupt, stop[0] is set; the drivers check it before each row and return
-    within a row, and the interrupt is re-raised here.  Calls from several Python threads
-    run one after another (Numba's workqueue layer is not safe for concurrent calls).
-
-    stop: uint8 (1,), 0 until the run is to stop.  threads: as for :class:`thread_count`
-    (Numba's thread count is per calling thread, so it is set in the worker).
-    work: the run's size, to call small runs directly (see DIRECT_WORK).
-    """
-    stop = np.zeros(1, np.uint8)
-    if work is not None and work < DIRECT_WORK:
-        with thread_count(threads) as tc:
-            return call(stop, tc.n)
-    counted = thread_count(threads)  # validates threads here, in the caller
-
-    def work_in_thread():
-        with counted as tc:
-            return call(stop, tc.n)
-
-    future = _worker().submit(work_in_thread)
-    while True:
-        try:
-            return future.result(timeout=0.05)
-        except TimeoutError:
-            continue
-        except KeyboardInterrupt:
-            stop[0] = 1
-            future.exception()  # wait: the drivers return before their next row
-            raise

@@ -20,7 +20,7 @@ from csw.data import datasets as D
 from csw.data.synth import render
 from csw.eval.scoring import filled_bad, score
 from csw.io import as_float_disparity, colorize
-from csw.kernels.contract import thread_count
+from csw.kernels.runtime import default_threads
 from report_common import cpu_name, fmt, now_utc, peak_memory_mb
 
 try:
@@ -254,12 +254,12 @@ def main():
         return {best_name: opencv("sgbm-best", n16, block)}
 
     results = {}
-    with thread_count(1):
+    with default_threads(1):
         for name in DATASETS:
             print(f"quality: {name}", file=sys.stderr, flush=True)
             results[name] = measure(name, args.repeat, extra)
     peak = peak_memory_mb(["--preset", "accurate"])
-    with thread_count(1):
+    with default_threads(1):
         passes = kernel_costs(args.repeat)
     images = []
     shown = [RECOMMENDED, "csw raw SAD", "OpenCV StereoBM default", "OpenCV SGBM (5, 200, 800)",

@@ -141,7 +141,7 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
     csw.pipeline).  dmax: None for each pair's own range (or the paper's with the paper
     preset).  Returns (rows, caption).
     """
-    from ..prepare import warm_up
+    from ..pipeline import entries
 
     chosen = PAPER_PRESET if preset == "paper" else PLAIN_PRESET
     named = params.resolve(preset=preset or EXPERIMENT_PRESET, **(stages or {}))
@@ -163,8 +163,10 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
             for engine in engines:
                 key = (engine, cost, pair.left.dtype.str)
                 if key not in compiled:
-                    compiled[key] = warm_up(engine, cost, window, pair.left.dtype,
-                                            stage_values)
+                    args = dict(engine=engine, cost=cost, window=window)
+                    compiled[key] = kernels.native.ensure(
+                        entries(dict(args, csw=False), stage_values, pair.left.dtype) +
+                        entries(dict(args, csw=True), stage_values, pair.left.dtype))
                 new = bench_rows(pair, cost=cost, window=window, dmin=dmin, dmax=top,
                                  engine=engine, rules=rules, tau=tau, unique_tau=unique_tau,
                                  uniqueness=uniqueness, repeat=repeat, threads=threads,

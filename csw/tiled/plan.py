@@ -12,9 +12,9 @@ import math
 import re
 from dataclasses import dataclass
 
-from .. import kernels
 from ..io.formats import TIFF_TILE
 from ..io.sources import open_source
+from ..kernels import runtime
 from ..params import stages
 from ..pipeline import filter_overlap, row_overlap
 
@@ -110,7 +110,7 @@ def plan(height, width, opts, memory_limit=None, stripe_rows=None, threads=None,
     st = stages(opts)
     over = row_overlap(st, opts["window"], opts["cost"])
     fover = filter_overlap(st)
-    threads = threads or kernels.contract.thread_count(opts["threads"]).n
+    threads = threads or runtime.thread_count(opts["threads"])
     per_row1, per_row2, fixed = stripe_bytes(opts, width, opts["dmin"], opts["dmax"],
                                              threads, colour)
     fixed += resident

@@ -127,7 +127,8 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
         return np.vstack(found)
 
     ready = prepare(opts, (height, width), left.dtype, right=(right.shape, right.dtype),
-                    sample_min_cost=sample_min_cost, make_plan=make_plan)
+                    sample_min_cost=sample_min_cost, make_plan=make_plan,
+                    confidence=confidence is not None)
     layout = ready.plan
     start_time = time.perf_counter()
     totals = _run_passes(left, right, output, confidence, preview, layout, ready.args,

@@ -83,16 +83,23 @@ def test_unknown_option_is_a_type_error(small_scene):
         csw.match(small_scene[0], small_scene[1], rule="unique")
 
 
-@pytest.mark.parametrize("cost, dtype", [("ssd", np.uint8), ("sad", np.uint16),
-                                         ("shd", np.uint16)])
-def test_warm_up_compiles_what_the_match_runs(cost, dtype):
-    """The match itself must not compile: the warm-up uses the same window and dtype (a
-    1x1 warm-up left SSD 9x9 and 16-bit input compiling inside the timed match)."""
-    from csw.kernels import fast
+@pytest.mark.parametrize("cost, dtype, options", [
+    ("ssd", np.uint8, {}), ("sad", np.uint16, {}), ("shd", np.uint16, {}),
+    ("census", np.uint8, dict(preset="accurate", csw=True, csw_rule="unique")),
+    ("sad", np.uint8, dict(csw=True, subpixel="linear", median=3, fill="background")),
+])
+def test_loading_the_kernels_loads_what_the_match_runs(cost, dtype, options):
+    """The match itself must not compile: the kernels a run needs are loaded (or compiled)
+    before it, for its window, dtype, census codes and stages (a 1x1 warm-up once left
+    SSD 9x9 and 16-bit input compiling inside the timed match)."""
+    from csw.kernels import native
 
     rng = np.random.default_rng(0)
     left = rng.integers(0, 200, (40, 60)).astype(dtype)
-    csw.prepare.warm_up("fast", cost, 9, dtype)
-    before = len(fast._fast_driver.signatures)
-    csw.match(left, np.roll(left, 2, 1), dmax=8, cost=cost, window=9)
-    assert len(fast._fast_driver.signatures) == before
+    opts = csw.params.resolve(**{"preset": "raw", **options, "cost": cost, "window": 9,
+                                 "dmax": 8})
+    csw.prepare.load_kernels(opts, csw.params.stages(opts), np.dtype(dtype))
+    loaded = dict(native._LOADED)
+    csw.match(left, np.roll(left, 2, 1), **{"preset": "raw", **options, "cost": cost,
+                                             "window": 9, "dmax": 8})
+    assert native._LOADED == loaded

@@ -1,0 +1,63 @@
+"""Helpers shared by the kernels' workers: exact bit counts, the stop flag, the CSW
+claim test and the unique rule's distinctness test."""
+
+from numba import njit, types
+from numba.extending import intrinsic, overload
+
+from ..config import SERIAL
+from ..contract import dtype_name, dtype_of  # noqa: F401 (the workers' modules use them)
+
+
+def ctpop(value):
+    """Number of set bits of an unsigned integer, in its own type.  Compiled, this is
+    LLVM's ctpop, which vectorises to byte lookups (AVX2 has no vector popcount)."""
+    return type(value)(int(value).bit_count())
+
+
+@intrinsic
+def _ctpop(typingctx, value):
+    def codegen(context, builder, signature, args):
+        return builder.ctpop(args[0])
+
+    return value(value), codegen
+
+
+@overload(ctpop)
+def _ctpop_compiled(value):
+    return lambda value: _ctpop(value)
+
+
+def stop_requested(stop):
+    """stop[0] != 0.  stop: uint8 (1,), set by another thread to stop a run.  Compiled, it
+    is an atomic load (see _atomic_flag); with NUMBA_DISABLE_JIT, this plain read."""
+    return stop[0] != 0
+
+
+@intrinsic
+def _atomic_flag(typingctx, stop):
+    """stop[0] != 0 read with an atomic load: a plain load of an array the loop never
+    writes may be hoisted out of the loop by LLVM (it was: a stop set mid-run went
+    unseen until the run's end)."""
+    def codegen(context, builder, signature, args):
+        array = context.make_array(signature.args[0])(context, builder, args[0])
+        value = builder.load_atomic(array.data, "monotonic", 1)
+        return builder.icmp_unsigned("!=", value, value.type(0))
+
+    return types.boolean(stop), codegen
+
+
+@overload(stop_requested)
+def _stop_requested_compiled(stop):
+    return lambda stop: _atomic_flag(stop)
+
+
+@njit(**SERIAL)
+def blocked(claim, x, slack):
+    """Whether a claim (the claimant's column, or -1) blocks pixel x: x - claimant > slack."""
+    return claim >= 0 and x - claim > slack
+
+
+@njit(**SERIAL)
+def is_distinct(best, second, uniqueness):
+    """The unique rule's test: a second-best cost exists and beats best by uniqueness %."""
+    return second >= 0 and second * 100 > best * (100 + uniqueness)

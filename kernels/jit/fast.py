@@ -1,0 +1,288 @@
+"""The fast engine's workers: running sums, O(1) work per (pixel, disparity) whatever the
+window, after OpenCV's stereobm.cpp (see kernels/fast.py for the layout and the entry):
+
+  column sums   V[j, k] = sum over the w window rows of psi(L[., j], R[., j - d]),
+                d = dmin + k, for padded column j; moved down one row by adding the
+                entering row and subtracting the leaving one (the "_sub" row).
+  row sums      H[k] = sum over b < w of V[x + b, k]: the cost C(y, x, d), moved right
+                one pixel by adding V[x + w - 1] and subtracting V[x - 1].
+
+A variant fixes at compile time the cost, the pixel and accumulator types, and which of
+the optional results a pass makes (CSW's B-map, the right image's map, the second-best
+and neighbour costs), so that a pass carries no code and pays no time for the others.
+
+Layers (the entry and the parallel driver over stripes are in kernels/fast.py):
+  stripe        per-stripe worker: column sums down the rows, one row at a time
+  select_row    per-row worker: slide the row sums, pick each pixel's disparity
+  columns_*     move the column sums down one row
+"""
+
+import numpy as np
+from numba import njit
+
+from ..config import SERIAL
+from ..contract import INVALID, RULE_UNIQUE
+from .common import blocked, ctpop, dtype_of, is_distinct, stop_requested
+
+# Disparity ranges up to this pick the minimum with packed keys (see select_row).
+KEYED_RANGE = 128
+
+# The scalars every stripe takes, in order (the entry's record).
+SCALARS = ("window", "dmin", "dmax", "tau", "rule", "uniqueness", "slack", "y0", "y1",
+           "never")
+
+
+def spec(cost, pixels, accumulator, csw, right_map, extras):
+    """The stripe worker of a variant.  cost: "sad", "ssd" or "shd" (census codes are
+    compared with shd); pixels, accumulator: type names ("u8", "u16", "i32", ...)."""
+    from ..native import Spec
+
+    pix, acc = dtype_of(pixels), dtype_of(accumulator)
+    i32, i64 = np.dtype(np.int32), np.dtype(np.int64)
+    arrays = ((pix, 2), (pix, 2),  # left_p, right_rev: (H + w - 1, Wp)
+              (acc, 2), (acc, 1),  # col_sums (Wp, D), row_sums (D,)
+              (i32, 1), (acc, 1), (np.dtype(np.int16), 1),  # claims, right_best, right_d (W,)
+              (i32, 2), (i64, 2),  # disp, min_cost (H, W)
+              (i64, 2), (i64, 2), (i64, 2), (i32, 2),  # second, prev, next, right_disp
+              (i64, 1), (np.dtype(np.uint8), 1))  # evaluated (H,), stop (1,)
+    return Spec(_make(cost, acc.type, bool(csw), bool(right_map), bool(extras)), arrays,
+                len(SCALARS))
+
+
+def _make(cost, acc, csw, right_map, extras):
+    """The workers of one variant; ``cost``, the accumulator type ``acc``, ``csw``,
+    ``right_map`` and ``extras`` are compile-time constants in them, so the branches they
+    decide are folded away."""
+    keyed = acc == np.uint16  # sum and index pack into one 32-bit key
+
+    @njit(**SERIAL)
+    def psi(a, b):
+        """psi(a, b) written so that LLVM keeps it in the pixels' narrow lanes: |a - b| as
+        max - min never leaves the unsigned range, where np.int64(a) - b would widen
+        every SIMD lane to 64 bits."""
+        if cost == "sad":
+            return max(a, b) - min(a, b)
+        if cost == "ssd":
+            diff = np.uint32(max(a, b) - min(a, b))  # its square fits 32 bits unsigned
+            return diff * diff
+        return ctpop(a ^ b)
+
+    @njit(**SERIAL)
+    def columns_add(left, right_rev, col_sums, dmin):
+        """col_sums[j, k] += psi(left[j], right[j - d]) for d = dmin + k <= j: add one
+        row.  left, right_rev: (Wp,) padded rows, the right one reversed, so
+        right[j - d] = right_rev[Wp - 1 - j + d].  col_sums: (Wp, D)."""
+        wp, ndisp = col_sums.shape
+        for j in range(dmin, wp):
+            sums = col_sums[j]
+            lv = left[j]
+            r = right_rev[wp - 1 - j + dmin:]
+            for k in range(min(ndisp, j - dmin + 1)):
+                sums[k] = sums[k] + psi(lv, r[k])
+
+    @njit(**SERIAL)
+    def columns_move(left, right_rev, left_sub, right_sub_rev, col_sums, dmin):
+        """As columns_add, adding the entering rows and subtracting the leaving (_sub)
+        ones in one pass.  Unsigned sums may wrap on the way: the arithmetic is exact
+        modulo their width, and every true value fits."""
+        wp, ndisp = col_sums.shape
+        for j in range(dmin, wp):
+            sums = col_sums[j]
+            lv, lv_sub = left[j], left_sub[j]
+            base = wp - 1 - j + dmin
+            r, r_sub = right_rev[base:], right_sub_rev[base:]
+            for k in range(min(ndisp, j - dmin + 1)):
+                sums[k] = sums[k] + psi(lv, r[k]) - psi(lv_sub, r_sub[k])
+
+    @njit(**SERIAL)
+    def select_row(col_sums, row_sums, never, sc, claims_rev, right_best_rev, right_rev_d,
+                   disp_row, cost_row, second_row, prev_row, next_row, right_row):
+        """Slide the row sums along one row and pick each pixel's disparity in the
+        contract's order: x ascending, and the smallest d among the minimum costs.
+
+        col_sums: (Wp, D).  row_sums: (D,) scratch, of the accumulator type.
+        never: accumulator scalar above every real cost (its type's maximum), so that
+            blocked candidates drop out of the min without a branch and the loops stay
+            SIMD.  sc: int64 (len(SCALARS),) the stripe's scalars.
+        claims_rev: int32 (W,) the B-map reversed: claims[x - d] = claims_rev[W-1-x+d],
+            the column of the pixel that last claimed each right pixel or -1, so the
+            candidates of one pixel read it forward; reset here.
+        right_best_rev: (W,) accumulator type, right_rev_d: int16 (W,): the least cost
+            seen for each right pixel and its d - dmin, reversed like claims_rev.
+        disp_row: int32 (W,) out.  cost_row: int64 (W,) out.  second_row, prev_row,
+            next_row: int64 (W,) out with extras; right_row: int32 (W,) out with
+            right_map.  Returns the number of candidates evaluated (those not blocked).
+
+        The loops are written out here rather than in helpers: Numba's IR inlining of a
+        helper kept LLVM from fusing them, and cost about 1.7x in time.
+        """
+        width = disp_row.shape[0]
+        ndisp = col_sums.shape[1]
+        w, dmin, tau, rule, uniqueness, slack = sc[0], sc[1], sc[3], sc[4], sc[5], sc[6]
+        if csw:
+            claims_rev[:] = -1
+        if right_map:
+            right_best_rev[:] = never
+            right_rev_d[:] = INVALID
+        # The window of pixel 0 less its last column, which the first slide adds; and
+        # column 0 once more, which the first slide subtracts as its "leaving" column
+        # (the sums are exact modulo their width, so adding and subtracting it is too).
+        row_sums[:] = 0
+        for b in range(w - 1):
+            sums = col_sums[b]
+            for k in range(ndisp):
+                row_sums[k] = row_sums[k] + sums[k]
+        sums = col_sums[0]
+        for k in range(ndisp):
+            row_sums[k] = row_sums[k] + sums[k]
+        evaluated = 0
+        for x in range(width):
+            n = max(min(ndisp, x - dmin + 1), 0)  # candidates d = dmin + k <= x
+            base = width - 1 - x + dmin  # claims[k] and the right pixel x - dmin - k, reversed
+            add = col_sums[x + w - 1]  # the column entering the window
+            sub = col_sums[max(x - 1, 0)]  # the column leaving it (see above for x = 0)
+            # Slide the first n sums and take their minimum in the same pass (blocked
+            # candidates count as `never`); then the first index holding the minimum, as
+            # a branch-free min over indices, so that it vectorises like the min itself.
+            best = never
+            taken = 0
+            first = np.int16(n)  # narrow lanes for the index min, like the sums' (D <= 2**15)
+            none = np.int16(n)
+            if csw:
+                claims = claims_rev[base:]
+                for k in range(n):
+                    row_sums[k] = row_sums[k] + add[k] - sub[k]
+                    skip = blocked(claims[k], x, slack)
+                    taken += skip
+                    best = min(best, never if skip else row_sums[k])
+                for k in range(n):
+                    hit = row_sums[k] == best and not blocked(claims[k], x, slack)
+                    first = min(first, np.int16(k) if hit else none)
+                if right_map:
+                    # The right image's best matches over the candidates not blocked: for
+                    # right pixel x - d, a strict < over ascending x keeps the smallest d.
+                    best_r = right_best_rev[base:]
+                    d_r = right_rev_d[base:]
+                    for k in range(n):
+                        c = never if blocked(claims[k], x, slack) else row_sums[k]
+                        better = c < best_r[k]
+                        best_r[k] = min(c, best_r[k])
+                        d_r[k] = np.int16(k) if better else d_r[k]
+            else:
+                if keyed and ndisp <= KEYED_RANGE:
+                    # One pass: the least of (sum << 16 | k) is the least sum at its
+                    # smallest k.  Faster than two passes for short ranges (fewer loops
+                    # per pixel), slower for long ones (32-bit lanes); 16-bit sums only.
+                    key = np.uint32(0xFFFFFFFF)
+                    for k in range(n):
+                        row_sums[k] = row_sums[k] + add[k] - sub[k]
+                        key = min(key, (np.uint32(row_sums[k]) << np.uint32(16)) |
+                                  np.uint32(k))
+                    best = acc(key >> np.uint32(16))
+                    first = np.int16(key & np.uint32(0xFFFF)) if n > 0 else none
+                else:
+                    for k in range(n):
+                        row_sums[k] = row_sums[k] + add[k] - sub[k]
+                        best = min(best, row_sums[k])
+                    for k in range(n):
+                        first = min(first, np.int16(k) if row_sums[k] == best else none)
+                if right_map:
+                    # The right image's best match per right pixel, from the same costs:
+                    # for right pixel x - d, a strict < over ascending x keeps the
+                    # smallest d among equals (kept as d - dmin in int16, the sums'
+                    # lanes).  A pass of its own: fused into the slide, LLVM no longer
+                    # vectorised it.
+                    best_r = right_best_rev[base:]
+                    d_r = right_rev_d[base:]
+                    for k in range(n):
+                        v = row_sums[k]
+                        d_r[k] = np.int16(k) if v < best_r[k] else d_r[k]
+                        best_r[k] = min(v, best_r[k])
+            for k in range(n, ndisp):  # not candidates yet (d > x), needed further right
+                row_sums[k] = row_sums[k] + add[k] - sub[k]
+            evaluated += n - taken
+            if taken == n:  # no candidate (x < dmin), or every one blocked
+                disp_row[x] = INVALID
+                cost_row[x] = -1
+                if extras:
+                    second_row[x] = -1
+                    prev_row[x] = -1
+                    next_row[x] = -1
+                continue
+            disp_row[x] = dmin + first
+            cost_row[x] = best
+            second = never
+            if csw and (extras or (rule == RULE_UNIQUE and best <= tau)):
+                # The least evaluated cost at least 2 away from first.  One pass over all
+                # candidates, the three next to the best masked out, vectorises better
+                # than two passes around them.
+                claims = claims_rev[base:]
+                for k in range(n):
+                    skip = blocked(claims[k], x, slack) or abs(k - first) <= 1
+                    second = min(second, never if skip else row_sums[k])
+            elif extras:
+                # Without CSW nothing is blocked: one plain minimum over all candidates,
+                # with the best's three set aside for it (and put back: later pixels
+                # slide them).
+                lo, hi = max(int(first) - 1, 0), min(int(first) + 2, n)
+                mid = min(lo + 1, hi - 1)
+                kept0, kept1, kept2 = row_sums[lo], row_sums[mid], row_sums[hi - 1]
+                for k in range(lo, hi):
+                    row_sums[k] = never
+                for k in range(n):
+                    second = min(second, row_sums[k])
+                row_sums[hi - 1] = kept2  # in reverse: where indices coincide, values agree
+                row_sums[mid] = kept1
+                row_sums[lo] = kept0
+            if extras:
+                claims = claims_rev[base:]
+                second_row[x] = -1 if second == never else np.int64(second)
+                prev_row[x] = -1 if first == 0 or (csw and blocked(claims[first - 1], x,
+                                                                   slack)) \
+                    else np.int64(row_sums[first - 1])
+                next_row[x] = -1 if first + 1 >= n or (csw and blocked(claims[first + 1], x,
+                                                                       slack)) \
+                    else np.int64(row_sums[first + 1])
+            if not csw or best > tau:
+                continue
+            if rule == RULE_UNIQUE and (second == never or not is_distinct(
+                    np.int64(best), np.int64(second), uniqueness)):
+                continue
+            claims_rev[base + first] = x
+        if right_map:
+            for xr in range(width):
+                k = right_rev_d[width - 1 - xr]
+                right_row[xr] = INVALID if k < 0 else dmin + k
+        return evaluated
+
+    @njit(**SERIAL)
+    def stripe(left_p, right_rev, col_sums, row_sums, claims, right_best, right_d, disp,
+               min_cost, second, prev, nxt, right_disp, evaluated, stop, sc):
+        """Match image rows sc[y0] <= y < sc[y1] into disp, min_cost (and the optional
+        maps) and evaluated (per row); return early, before a row, once stop[0] is set.
+
+        left_p: (H + w - 1, Wp) padded left.  right_rev: the padded right, columns
+        reversed.  col_sums: (Wp, D), row_sums: (D,) accumulators; claims: int32 (W,)
+        reversed B-map; right_best, right_d: (W,) reversed right-map scratch: all
+        scratch of this stripe.  Maps not made are 1-row dummies, never written.
+        """
+        w, dmin, y0, y1 = sc[0], sc[1], sc[7], sc[8]
+        never = acc(sc[9])
+        col_sums[:] = 0
+        for a in range(w):  # the window of padded rows y0 .. y0 + w - 1, each added once
+            columns_add(left_p[y0 + a], right_rev[y0 + a], col_sums, dmin)
+        for y in range(y0, y1):
+            if stop_requested(stop):
+                return 0
+            if y > y0:
+                # Move down: row y + w - 1 enters the window, row y - 1 leaves (the _sub).
+                columns_move(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
+                             right_rev[y - 1], col_sums, dmin)
+            e = y if extras else 0
+            r = y if right_map else 0
+            evaluated[y] = select_row(col_sums, row_sums, never, sc, claims, right_best,
+                                      right_d, disp[y], min_cost[y], second[e], prev[e],
+                                      nxt[e], right_disp[r])
+        return 0
+
+    return stripe

@@ -1,0 +1,187 @@
+"""The post filters' workers (see kernels/filters.py): the left-right check, speckle
+removal over regions of similar disparity (as OpenCV's filterSpeckles), a median over
+valid pixels only, and the background fill of the Middlebury and KITTI kits.
+
+Maps are float32 (H, W) with NaN where invalid, save the left-right check's int32 maps.
+Row-local filters work on a stripe of rows (sc[0] <= y < sc[1]) so that stripes run in
+parallel; the speckle filter's regions span rows, so it runs whole.
+"""
+
+import numpy as np
+from numba import njit
+
+from ..config import SERIAL
+
+F32, I32, U8, F64 = (np.dtype(t) for t in (np.float32, np.int32, np.uint8, np.float64))
+
+
+def spec(kind):
+    """The worker of a filter: "lr", "speckle", "median" or "fill"."""
+    from ..native import Spec
+
+    return {
+        # disp, right_disp (H, W) int32; valid (H, W) uint8 out; sc: y0, y1, limit
+        "lr": Spec(lr_consistent, ((I32, 2), (I32, 2), (U8, 2)), 3),
+        # disp (H, W); small (H, W) uint8 out; parent, size (H*W,) int32, above, here
+        # (W,) int32 scratch; max_diff (1,) float64; sc: max_size
+        "speckle": Spec(speckle_mask, ((F32, 2), (U8, 2), (I32, 1), (I32, 1), (I32, 1),
+                                       (I32, 1), (F64, 1)), 1),
+        # disp, out (H, W); window (size*size,) scratch; sc: y0, y1, size
+        "median": Spec(median_valid, ((F32, 2), (F32, 2), (F32, 1)), 3),
+        # disp, out (H, W); sc: y0, y1
+        "fill": Spec(fill_background, ((F32, 2), (F32, 2)), 2),
+    }[kind]
+
+
+@njit(**SERIAL)
+def lr_consistent(disp, right_disp, valid, sc):
+    """valid[y, x] = 1 where d = disp[y, x] is valid (>= 0) and its right pixel's own match,
+    right_disp[y, x - d] (-1: none), differs from it by at most sc[2]; for the rows of
+    the stripe."""
+    width = disp.shape[1]
+    limit = sc[2]
+    for y in range(sc[0], sc[1]):
+        for x in range(width):
+            d = disp[y, x]
+            ok = False
+            if d >= 0:
+                back = right_disp[y, x - d]
+                ok = back >= 0 and abs(d - back) <= limit
+            valid[y, x] = ok
+    return 0
+
+
+@njit(**SERIAL)
+def _root(parent, run):
+    """The root of a run in the union-find forest, halving the path on the way."""
+    while parent[run] != run:
+        parent[run] = parent[parent[run]]
+        run = parent[run]
+    return run
+
+
+@njit(**SERIAL)
+def _row_runs(disp, y, limit, runs, next_run):
+    """Number row y's runs from next_run on: maximal horizontal stretches of valid pixels
+    whose neighbours differ by at most limit.  runs: int32 (W,) out, each pixel's run or
+    -1 where invalid.  Returns the next free number."""
+    width = disp.shape[1]
+    for x in range(width):
+        v = disp[y, x]
+        if np.isnan(v):
+            runs[x] = -1
+        elif x > 0 and runs[x - 1] >= 0 and abs(v - disp[y, x - 1]) <= limit:
+            runs[x] = runs[x - 1]
+        else:
+            runs[x] = next_run
+            next_run += 1
+    return next_run
+
+
+@njit(**SERIAL)
+def speckle_mask(disp, small, parent, size, above, here, max_diff, sc):
+    """small = 1 for valid pixels in regions of fewer than sc[0] pixels, where a region is
+    a 4-connected set of valid pixels whose neighbours differ by at most max_diff[0].
+
+    Regions are found as runs joined into a union-find forest: each row's runs (see
+    _row_runs), joined to the runs above them wherever a pixel and the one above differ
+    by at most the limit; a second scan numbers the runs again, in the same order, and
+    marks the pixels of small regions.  parent, size: int32 (H * W,) (as many entries are
+    written as there are runs); above, here: int32 (W,) scratch.
+    """
+    height, width = disp.shape
+    max_size, limit = sc[0], max_diff[0]
+    next_run = 0
+    for y in range(height):
+        first = next_run
+        next_run = _row_runs(disp, y, limit, here, next_run)
+        for run in range(first, next_run):
+            parent[run] = run
+            size[run] = 0
+        for x in range(width):  # the row's runs, whole, before any of them is joined
+            if here[x] >= 0:
+                size[here[x]] += 1
+        joined_a, joined_b = -1, -1  # the last pair of runs joined: most links repeat it
+        for x in range(width):
+            a, b = here[x], above[x] if y > 0 else -1
+            if a < 0 or b < 0 or (a == joined_a and b == joined_b) or \
+                    abs(disp[y, x] - disp[y - 1, x]) > limit:
+                continue
+            joined_a, joined_b = a, b
+            ra, rb = _root(parent, a), _root(parent, b)
+            if ra != rb:  # the smaller tree under the larger
+                if size[ra] < size[rb]:
+                    ra, rb = rb, ra
+                parent[rb] = ra
+                size[ra] += size[rb]
+        above, here = here, above
+    next_run = 0
+    for y in range(height):
+        next_run = _row_runs(disp, y, limit, here, next_run)
+        for x in range(width):
+            run = here[x]
+            small[y, x] = run >= 0 and size[_root(parent, run)] < max_size
+    return 0
+
+
+@njit(**SERIAL)
+def median_valid(disp, out, window, sc):
+    """out[y, x]: for each valid pixel, the median of the valid pixels in its size x size
+    window (the lower middle for an even count); NaN for invalid pixels; rows sc[0] to
+    sc[1] with size sc[2].  window: (size * size,) scratch, kept sorted by insertion."""
+    height, width = disp.shape
+    size = sc[2]
+    h = size // 2
+    for y in range(sc[0], sc[1]):
+        for x in range(width):
+            if np.isnan(disp[y, x]):
+                out[y, x] = np.nan
+                continue
+            n = 0
+            for yy in range(max(y - h, 0), min(y + h + 1, height)):
+                for xx in range(max(x - h, 0), min(x + h + 1, width)):
+                    v = disp[yy, xx]
+                    if not np.isnan(v):
+                        i = n
+                        while i > 0 and window[i - 1] > v:
+                            window[i] = window[i - 1]
+                            i -= 1
+                        window[i] = v
+                        n += 1
+            out[y, x] = window[(n - 1) // 2]
+    return 0
+
+
+@njit(**SERIAL)
+def fill_background(disp, out, sc):
+    """out: disp with every invalid pixel filled, for rows sc[0] to sc[1]: along each row,
+    an invalid pixel takes the smaller of the nearest valid disparities to its left and
+    right (the background side); at a row's end, the one valid neighbour; a row with none
+    becomes 0 (the KITTI devkit's interpolation, used by the Middlebury kit for sparse
+    results too)."""
+    width = disp.shape[1]
+    for y in range(sc[0], sc[1]):
+        last = np.nan  # the nearest valid value to the left
+        x = 0
+        while x < width:
+            if not np.isnan(disp[y, x]):
+                last = disp[y, x]
+                out[y, x] = last
+                x += 1
+                continue
+            end = x
+            while end < width and np.isnan(disp[y, end]):
+                end += 1
+            right = disp[y, end] if end < width else np.nan
+            if np.isnan(last) and np.isnan(right):
+                value = 0.0
+            elif np.isnan(last):
+                value = right
+            elif np.isnan(right):
+                value = last
+            else:
+                value = min(last, right)
+            for i in range(x, end):
+                out[y, i] = value
+            x = end
+    return 0

@@ -1,0 +1,138 @@
+"""The window engine's workers: the paper's method, a full w x w cost sum for every
+candidate, so the candidates CSW skips are real work saved (see kernels/window.py).
+
+Layers (the entry and the parallel driver over stripes of rows are in kernels/window.py):
+  rows          per-stripe worker: the stripe's rows, each with its own B-map
+  match_row     per-row worker: no checks, no allocation
+"""
+
+import numpy as np
+from numba import njit
+
+from ..config import SERIAL
+from ..contract import INVALID, RULE_UNIQUE
+from .common import blocked, ctpop, dtype_of, is_distinct, stop_requested
+
+# The scalars every stripe takes, in order.
+SCALARS = ("window", "dmin", "dmax", "tau", "rule", "uniqueness", "slack", "i0", "i1")
+
+
+def spec(cost, pixels, csw, right_map, extras):
+    """The stripe worker of a variant.  cost: "sad", "ssd" or "shd"; pixels: the padded
+    images' type name ("u16" for 8- and 16-bit images, the codes' type for census)."""
+    from ..native import Spec
+
+    pix = dtype_of(pixels)
+    i32, i64 = np.dtype(np.int32), np.dtype(np.int64)
+    arrays = ((pix, 2), (pix, 2), (i64, 1),  # left_p, right_p (H + w - 1, W + w - 1), rows
+              (i32, 1), (i64, 1), (i64, 1),  # claims (W,), costs (D,), right_best (W,)
+              (i32, 2), (i64, 2),  # disp, min_cost (n, W)
+              (i64, 2), (i64, 2), (i64, 2), (i32, 2),  # second, prev, next, right_disp
+              (i64, 1), (np.dtype(np.uint8), 1))  # evaluated (n,), stop (1,)
+    return Spec(_make(cost, bool(csw), bool(right_map), bool(extras)), arrays, len(SCALARS))
+
+
+def _make(cost, csw, right_map, extras):
+    """The workers of one variant, with its cost and flags as compile-time constants."""
+
+    @njit(**SERIAL)
+    def window_cost(left_p, right_p, top, xl, xr, w):
+        """C for one candidate: the w x w window with top-left (top, xl) in the padded
+        left image against the one with top-left (top, xr) in the padded right image."""
+        total = np.int64(0)
+        for a in range(w):
+            for b in range(w):
+                lv, rv = left_p[top + a, xl + b], right_p[top + a, xr + b]
+                if cost == "sad":
+                    total += abs(np.int64(lv) - np.int64(rv))
+                elif cost == "ssd":
+                    diff = np.int64(lv) - np.int64(rv)
+                    total += diff * diff
+                else:
+                    total += np.int64(ctpop(lv ^ rv))
+        return total
+
+    @njit(**SERIAL)
+    def match_row(left_p, right_p, y, sc, claims, costs, right_best, disp_row, cost_row,
+                  second_row, prev_row, next_row, right_row):
+        """Match one row y, left to right, and return the number of candidates evaluated.
+
+        left_p, right_p: (H + w - 1, W + w - 1), images (or census codes) edge-padded by
+            h = w // 2, so the window centred on image pixel (y, x) has top-left (y, x).
+        sc: the stripe's scalars (window, range, CSW rule).
+        claims: int32 (W,), this row's B-map: the column of the pixel that last claimed
+            each right pixel, or -1; reset here.  A claim by x' blocks pixel x if
+            x - x' > slack.
+        costs: int64 (D,) scratch: this pixel's evaluated costs by d - dmin (-1 = skipped).
+        right_best: int64 (W,) scratch: the least cost seen for each right pixel.
+        disp_row: int32 (W,) out, D(y, x) or INVALID.  cost_row: int64 (W,) out, m or -1.
+        second_row, prev_row, next_row: int64 (W,) out with extras; right_row: int32 (W,)
+            out with right_map (see MatchResult).
+        """
+        width = disp_row.shape[0]
+        w, dmin, dmax, tau, rule, uniqueness, slack = (sc[0], sc[1], sc[2], sc[3], sc[4],
+                                                       sc[5], sc[6])
+        if csw:
+            claims[:] = -1
+        if right_map:
+            right_best[:] = np.iinfo(np.int64).max
+            right_row[:] = INVALID
+        evaluated = 0
+        for x in range(width):
+            best_d = INVALID
+            best = np.int64(-1)
+            top = min(dmax, x)
+            for d in range(dmin, top + 1):
+                if csw and blocked(claims[x - d], x, slack):
+                    costs[d - dmin] = -1
+                    continue
+                c = window_cost(left_p, right_p, y, x, x - d, w)
+                costs[d - dmin] = c
+                evaluated += 1
+                # Strict < over ascending d: the smallest d wins ties.
+                if best_d == INVALID or c < best:
+                    best = c
+                    best_d = d
+                if right_map and c < right_best[x - d]:
+                    # Strict < over ascending x: for a right pixel, the smallest d wins.
+                    right_best[x - d] = c
+                    right_row[x - d] = d
+            disp_row[x] = best_d
+            cost_row[x] = best
+            second = np.int64(-1)
+            if best_d != INVALID and (extras or (csw and rule == RULE_UNIQUE and
+                                                 best <= tau)):
+                # The least evaluated cost at least 2 away from best_d.
+                for d in range(dmin, top + 1):
+                    c = costs[d - dmin]
+                    if c >= 0 and abs(d - best_d) >= 2 and (second < 0 or c < second):
+                        second = c
+            if extras:
+                second_row[x] = second
+                prev_row[x] = costs[best_d - 1 - dmin] if best_d > dmin else -1
+                next_row[x] = costs[best_d + 1 - dmin] if 0 <= best_d < top else -1
+            if not csw or best_d == INVALID or best > tau:
+                continue
+            if rule == RULE_UNIQUE and not is_distinct(best, second, uniqueness):
+                continue
+            claims[x - best_d] = x
+        return evaluated
+
+    @njit(**SERIAL)
+    def rows(left_p, right_p, row_list, claims, costs, right_best, disp, min_cost, second,
+             prev, nxt, right_disp, evaluated, stop, sc):
+        """Match rows row_list[i] for sc[i0] <= i < sc[i1] into the maps' rows i; rows not
+        started once stop[0] is set are skipped (an interrupted run's maps are unused).
+        claims, costs, right_best: this stripe's scratch.  Maps not made are 1-row
+        dummies, never written."""
+        for i in range(sc[7], sc[8]):
+            if stop_requested(stop):
+                return 0
+            e = i if extras else 0
+            r = i if right_map else 0
+            evaluated[i] = match_row(left_p, right_p, row_list[i], sc, claims, costs,
+                                     right_best, disp[i], min_cost[i], second[e], prev[e],
+                                     nxt[e], right_disp[r])
+        return 0
+
+    return rows

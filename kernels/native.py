@@ -1,0 +1,312 @@
+"""csw's compiled kernels: compiled once per CPU, then loaded without Numba.
+
+Every kernel has a C-callable entry over raw arrays (see ``jit/``).  The first run that
+needs an entry compiles it with Numba and stores its machine code as an object file in
+the kernel cache; every later process loads that file with llvmlite (Numba's own code
+generator, a small import) and calls the entry through ctypes, which releases the GIL so
+that row stripes run in parallel threads.  ``import numba`` (about 0.3 s) and Numba's
+cache lookups happen only when something must be compiled.
+
+An entry is named by its kernel and its *variant*: the parameters fixed at compile time
+(the cost, the pixel types, which optional maps it makes), so that a run compiles only
+what it uses and each entry carries no code for the maps it does not make.
+
+The cache (``cache_dir()``) is one folder per CPU, Python, llvmlite and kernel source:
+any change of those gives a new folder, never a stale entry.  Entries are written to a
+temporary file and renamed, and a lock beside them makes concurrent first runs compile
+each entry once while the others wait.  With ``NUMBA_DISABLE_JIT=1`` the entries run as
+plain Python (for debugging and coverage), with the same results.
+"""
+
+import ctypes
+import hashlib
+import json
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+JIT_DISABLED = os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
+JIT_SOURCES = Path(__file__).with_name("jit")
+
+# Seconds Numba takes to compile each kernel's entry on the machines csw was measured on
+# (2-core AMD EPYC); the notice before a compile sums them for what is missing.
+COMPILE_SECONDS = {"fast": 3.0, "window": 1.5, "census": 0.8, "filters": 0.6}
+START_SECONDS = 1.0  # importing Numba and its first compile's set-up
+
+# What happened in this process: entries loaded from the cache, and entries compiled.
+STATS = {"loaded": 0, "compiled": 0, "compile_seconds": 0.0, "load_seconds": 0.0}
+
+
+@dataclass(frozen=True)
+class Spec:
+    """What a jit module builds for a variant: ``worker(*arrays, scalars) -> int`` (a
+    Numba function, or plain Python with the JIT off), the (dtype, ndim) of each array
+    argument, and how many int64 scalars follow them."""
+
+    worker: object
+    arrays: tuple
+    scalars: int
+
+
+class Entry:
+    """A loaded kernel entry: ``entry(arrays, scalars)`` runs it.  arrays: C-contiguous
+    numpy arrays of the spec's dtypes and dimensions; scalars: ints."""
+
+    def __init__(self, key, spec, function):
+        self.key, self.spec, self.function = key, spec, function
+
+    def __call__(self, arrays, scalars):
+        spec = self.spec
+        if len(arrays) != len(spec.arrays) or len(scalars) != spec.scalars:
+            raise TypeError(f"kernel {self.key} takes {len(spec.arrays)} arrays and "
+                            f"{spec.scalars} scalars")
+        for i, (array, (dtype, ndim)) in enumerate(zip(arrays, spec.arrays, strict=True)):
+            if array.dtype != dtype or array.ndim != ndim or not array.flags.c_contiguous:
+                raise TypeError(f"kernel {self.key}: array {i} must be C-contiguous {dtype} "
+                                f"with {ndim} dimensions, got {array.dtype} {array.shape}")
+        if self.function is None:  # NUMBA_DISABLE_JIT: the worker is plain Python
+            return int(spec.worker(*arrays, np.array(scalars, np.int64)))
+        pointers = (ctypes.c_void_p * max(len(arrays), 1))(*(a.ctypes.data for a in arrays))
+        dims = [d for a in arrays for d in a.shape]
+        dims = (ctypes.c_int64 * max(len(dims), 1))(*dims)
+        values = (ctypes.c_int64 * max(len(scalars), 1))(*(int(v) for v in scalars))
+        return self.function(pointers, dims, values)
+
+
+_LOADED = {}  # key -> Entry, in this process
+_ENGINES = []  # llvmlite execution engines, kept alive with the code they hold
+_NOTICE = {"shown": False}
+
+
+def notify(message):
+    """Say something about compiling on stderr (the CLI and notebooks alike see it)."""
+    print(message, file=sys.stderr, flush=True)
+
+
+def entry(kernel, variant):
+    """The entry of ``kernel`` for ``variant`` (a tuple of str/int/bool), loaded from the
+    cache or compiled into it."""
+    key = entry_key(kernel, variant)
+    if key not in _LOADED:
+        ensure([(kernel, variant)])
+    return _LOADED[key]
+
+
+def entry_key(kernel, variant):
+    return "-".join([kernel, *(str(int(v)) if isinstance(v, bool) else str(v)
+                               for v in variant)])
+
+
+def ensure(wanted, progress=None, notice=True):
+    """Load every (kernel, variant) of ``wanted``, compiling the missing ones first (one
+    notice on stderr when that takes more than about a second); return the seconds
+    spent.  Concurrent processes compile each entry once: the others wait for it.
+    progress(key, compiled): called for each entry as it is compiled (True) or found.
+    notice: say on stderr when a compile is ahead (off for a caller that shows progress)."""
+    start = time.perf_counter()
+    wanted = [(k, tuple(v)) for k, v in dict.fromkeys((k, tuple(v)) for k, v in wanted)]
+    todo = [(k, v) for k, v in wanted if entry_key(k, v) not in _LOADED]
+    if not todo:
+        return 0.0
+    if JIT_DISABLED:
+        for kernel, variant in todo:
+            _LOADED[entry_key(kernel, variant)] = Entry(entry_key(kernel, variant),
+                                                        _spec(kernel, variant), None)
+        return time.perf_counter() - start
+    folder = cache_dir()
+    missing = [(k, v) for k, v in todo if not _stored(folder, entry_key(k, v))]
+    if missing:
+        with _lock(folder):  # another process may be compiling them: wait, then look again
+            missing = [(k, v) for k, v in missing if not _stored(folder, entry_key(k, v))]
+            if missing:
+                _compile(folder, missing, progress, notice)
+    loading = time.perf_counter()
+    for kernel, variant in todo:
+        key = entry_key(kernel, variant)
+        _LOADED[key] = Entry(key, _spec_shape(kernel, variant), _load(folder, key))
+        STATS["loaded"] += 1
+        if progress is not None and (kernel, variant) not in missing:
+            progress(key, False)
+    STATS["load_seconds"] += time.perf_counter() - loading
+    return time.perf_counter() - start
+
+
+def missing_seconds(wanted):
+    """The estimated seconds to compile what of ``wanted`` is not in the cache yet."""
+    if JIT_DISABLED:
+        return 0.0
+    folder = cache_dir()
+    return sum(COMPILE_SECONDS.get(k, 1.0) for k, v in wanted
+               if entry_key(k, tuple(v)) not in _LOADED and
+               not _stored(folder, entry_key(k, tuple(v))))
+
+
+def _compile(folder, missing, progress=None, notice=True):
+    estimate = START_SECONDS + sum(COMPILE_SECONDS.get(k, 1.0) for k, _ in missing)
+    if notice and estimate >= 1.0 and not _NOTICE["shown"]:
+        _NOTICE["shown"] = True
+        notify(f"csw: compiling csw's kernels for this CPU, once: about {estimate:.0f} s "
+               f"(later runs load them from {folder})")
+    from .jit import build
+
+    for kernel, variant in missing:
+        start = time.perf_counter()
+        key = entry_key(kernel, variant)
+        symbol, code = build.compile_entry(kernel, variant)
+        _store(folder, key, symbol, code)
+        STATS["compiled"] += 1
+        STATS["compile_seconds"] += time.perf_counter() - start
+        if progress is not None:
+            progress(key, True)
+
+
+# ---------------------------------------------------------------------------- the specs
+
+
+def _spec(kernel, variant):
+    """The Spec of a variant, with its Python worker (imports the jit module)."""
+    import importlib
+
+    module = importlib.import_module(f".jit.{kernel}", __package__)
+    return module.spec(*variant)
+
+
+def _spec_shape(kernel, variant):
+    """The Spec's array and scalar layout without importing Numba: stored beside the
+    entry's code when it was compiled."""
+    meta = json.loads((cache_dir() / f"{entry_key(kernel, variant)}.json").read_text())
+    arrays = tuple((np.dtype(d), n) for d, n in meta["arrays"])
+    return Spec(None, arrays, meta["scalars"])
+
+
+# ---------------------------------------------------------------------------- the cache
+
+
+def cache_dir():
+    """The kernel cache of this CPU and kernel source: CSW_KERNEL_CACHE, else
+    NUMBA_CACHE_DIR/csw (the folder CI setups already keep between runs), else the user's
+    cache folder; in a subfolder named by everything the machine code depends on."""
+    root = os.environ.get("CSW_KERNEL_CACHE")
+    if root is None and os.environ.get("NUMBA_CACHE_DIR"):
+        root = Path(os.environ["NUMBA_CACHE_DIR"]) / "csw"
+    if root is None:
+        base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+        root = Path(base) / "csw" / "kernels"
+    return Path(root) / _fingerprint()
+
+
+_FINGERPRINT = {}
+
+
+def _fingerprint():
+    """A name for everything the compiled code depends on: the kernel sources, Python,
+    llvmlite (which fixes Numba's version), the CPU and Numba's CPU settings."""
+    if "value" not in _FINGERPRINT:
+        import llvmlite
+        import llvmlite.binding as llvm
+
+        digest = hashlib.sha256()
+        for path in sorted(JIT_SOURCES.glob("*.py")):
+            digest.update(path.name.encode() + path.read_bytes())
+        for part in (sys.version, llvmlite.__version__, llvm.get_host_cpu_name(),
+                     llvm.get_host_cpu_features().flatten(),
+                     os.environ.get("NUMBA_CPU_NAME", ""),
+                     os.environ.get("NUMBA_CPU_FEATURES", ""),
+                     os.environ.get("NUMBA_OPT", "")):
+            digest.update(str(part).encode() + b"\0")
+        _FINGERPRINT["value"] = f"{llvm.get_host_cpu_name()}-{digest.hexdigest()[:16]}"
+    return _FINGERPRINT["value"]
+
+
+def _stored(folder, key):
+    return (folder / f"{key}.json").is_file() and (folder / f"{key}.o").is_file()
+
+
+def _store(folder, key, symbol, code):
+    """Write the object file, then its description: an entry is complete once its .json
+    exists, and both are renamed into place, so a killed compile leaves no entry."""
+    meta, obj = code
+    folder.mkdir(parents=True, exist_ok=True)
+    for suffix, payload in ((".o", obj), (".json", json.dumps(dict(meta, symbol=symbol))
+                                          .encode())):
+        tmp = folder / f".{key}{suffix}.{os.getpid()}.tmp"
+        tmp.write_bytes(payload)
+        os.replace(tmp, folder / f"{key}{suffix}")
+
+
+class _lock:
+    """An exclusive lock on a file beside the entries (released by the system if the
+    process dies); a no-op where the platform has no fcntl."""
+
+    def __init__(self, folder):
+        self.folder = folder
+
+    def __enter__(self):
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.handle = open(self.folder / ".lock", "a+")
+        try:
+            import fcntl
+
+            fcntl.flock(self.handle, fcntl.LOCK_EX)
+        except ImportError:
+            return self
+        # Only the lock's holder writes entries: a temporary file now is a killed
+        # compile's, and can go.
+        for stale in self.folder.glob(".*.tmp"):
+            stale.unlink(missing_ok=True)
+        return self
+
+    def __exit__(self, *exc):
+        self.handle.close()  # closing releases the lock
+        return False
+
+
+def _load(folder, key):
+    """The ctypes function of a stored entry, through an llvmlite execution engine."""
+    import llvmlite.binding as llvm
+
+    meta = json.loads((folder / f"{key}.json").read_text())
+    if not _ENGINES:
+        llvm.initialize_native_target()
+        llvm.initialize_native_asmprinter()
+    _resolve([*meta["imports"], "memset", "memcpy", "memmove"])
+    target = llvm.Target.from_default_triple().create_target_machine(
+        cpu=llvm.get_host_cpu_name(), features=llvm.get_host_cpu_features().flatten(),
+        opt=3, jit=True)
+    engine = llvm.create_mcjit_compiler(llvm.parse_assembly(""), target)
+    engine.add_object_file(llvm.ObjectFileRef.from_data((folder / f"{key}.o").read_bytes()))
+    engine.finalize_object()
+    _ENGINES.append(engine)
+    address = engine.get_function_address(meta["symbol"])
+    if not address:
+        raise RuntimeError(f"csw's kernel cache entry {folder / key} is damaged; delete "
+                           f"{folder} and run again")
+    c_pointers = ctypes.POINTER(ctypes.c_void_p)
+    c_ints = ctypes.POINTER(ctypes.c_int64)
+    return ctypes.CFUNCTYPE(ctypes.c_int64, c_pointers, c_ints, c_ints)(address)
+
+
+def _resolve(names):
+    """Give the execution engine the address of every symbol an entry's code uses from
+    outside it: the C library's (memset ...) and Python's from this process.  Numba's
+    runtime helpers are not loaded without Numba: they serve only the paths that report
+    an exception, which csw's kernels never take (no checks, numpy's error model), so
+    they point at abort(), and a kernel bug stops the process at once."""
+    import llvmlite.binding as llvm
+
+    process = ctypes.CDLL(None)
+    for name in names:
+        if llvm.address_of_symbol(name):
+            continue
+        found = getattr(process, name, None) if not name.startswith(("numba_", "NRT_")) \
+            else None
+        llvm.add_symbol(name, ctypes.cast(found or process.abort, ctypes.c_void_p).value)
+
+
+def clear():
+    """Forget the entries loaded in this process (tests: to load them again)."""
+    _LOADED.clear()

@@ -1,0 +1,96 @@
+"""Running kernel entries in parallel: the drivers hand their stripes of rows to a pool of
+threads (an entry called through ctypes releases the GIL), each stripe with its own
+scratch, and stop them within a row on Ctrl-C.  No Numba here."""
+
+import os
+from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
+
+import numpy as np
+
+# Runs smaller than this (in pixel-disparity-window operations: about 10 ms) run in the
+# calling thread, as one stripe: starting threads would cost a few percent of them, and
+# a Ctrl-C waits no longer than the run itself.
+DIRECT_WORK = 50_000_000
+
+
+def max_threads():
+    """The threads csw may use: NUMBA_NUM_THREADS where set (Dask workers set it to share
+    the cores between them), else the cores this process may run on."""
+    value = os.environ.get("NUMBA_NUM_THREADS")
+    if value:
+        return max(1, int(value))
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+_DEFAULT = {"threads": None}
+
+
+class default_threads:
+    """Within a ``with``, runs that don't say how many threads use ``n`` (scripts that
+    time everything on one thread)."""
+
+    def __init__(self, n):
+        self.n = thread_count(n)
+
+    def __enter__(self):
+        self.previous, _DEFAULT["threads"] = _DEFAULT["threads"], self.n
+        return self
+
+    def __exit__(self, *exc):
+        _DEFAULT["threads"] = self.previous
+        return False
+
+
+def thread_count(threads):
+    """The number of threads for a run: ``threads`` checked, or the default (all)."""
+    limit = max_threads()
+    if threads is None:
+        return _DEFAULT["threads"] or limit
+    if isinstance(threads, bool) or int(threads) != threads or not 1 <= threads <= limit:
+        raise ValueError(f"threads must be between 1 and {limit}, got {threads}")
+    return int(threads)
+
+
+_POOLS = {}  # (pid, size) -> ThreadPoolExecutor: a forked child has the object, not threads
+
+
+def _pool(size):
+    key = (os.getpid(), size)
+    if key not in _POOLS:
+        _POOLS[key] = ThreadPoolExecutor(max_workers=size, thread_name_prefix="csw-kernel")
+    return _POOLS[key]
+
+
+def run_stripes(task, count, threads, work):
+    """Run ``task(i, stop)`` for i in range(count) (stripe i of a run), ``threads`` at a
+    time, and return their results in order.
+
+    stop: uint8 (1,), the flag every entry checks before each row.  Python acts on a
+    Ctrl-C only in the main thread and between bytecodes, never inside an entry, so the
+    stripes run in the pool's threads while this thread waits: on a Ctrl-C it sets the
+    flag, the stripes return within a row, and the interrupt is raised again here.
+    work: the run's size; a run under DIRECT_WORK runs in the calling thread.
+    """
+    stop = new_stop_flag()
+    if work < DIRECT_WORK:
+        return [task(i, stop) for i in range(count)]
+    futures = [_pool(threads).submit(task, i, stop) for i in range(count)]
+    try:
+        pending = futures
+        while pending:
+            done, pending = wait(pending, timeout=0.05, return_when=FIRST_EXCEPTION)
+            for future in done:
+                future.result()  # raises a stripe's error at once
+    except BaseException:
+        stop[0] = 1
+        wait(futures)
+        raise
+    return [future.result() for future in futures]
+
+
+def new_stop_flag():
+    """The stop flag of a run: uint8 (1,), 0 until the run is to stop."""
+    return np.zeros(1, np.uint8)
