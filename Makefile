@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test bench bench-peers bench-scale tradeoff quality lint format clean
+.PHONY: run test bench bench-peers bench-scale bench-startup tradeoff quality lint format clean
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -39,6 +39,9 @@ bench-peers: $(VENV)/.installed-dev
 
 bench-scale: $(VENV)/.installed-dev
 	scripts/bench_scale.sh
+
+bench-startup: $(VENV)/.installed-dev
+	scripts/bench_startup.sh
 
 tradeoff: $(VENV)/.installed-dev
 	scripts/tradeoff.sh

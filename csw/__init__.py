@@ -14,33 +14,66 @@ Layout: ``params`` (the options), ``whole`` (csw.match), ``tiled`` (row stripes)
 (many pairs), ``prepare`` and ``pipeline`` (the stages around ``kernels``), ``io``
 (images, formats, atomic writes), ``data`` (datasets, benchmark layouts, the synthetic
 scene), ``eval`` (scoring, bench, sweep, histograms, plots).
+
+Names are imported on first use, so ``import csw`` costs only what a call needs.
 """
 
-from importlib.metadata import PackageNotFoundError, version
+import importlib
 
-from . import kernels, params
-from .batch import Job, jobs_from_folders, jobs_from_manifest, match_many
-from .data.datasets import DataError, Pair
-from .data.datasets import load as load_dataset
-from .data.datasets import names as dataset_names
-from .data.layouts import scan as scan_folder
-from .data.synth import render as synthetic_pair
-from .eval.bench import bench_rows, run_bench, total_rows
-from .eval.scoring import score
-from .eval.sweep import sweep_rows
-from .files import match_files
-from .io import ImageError, read_disparity, read_image, write_disparity
-from .params import OptionError
-from .tiled import TiledResult, match_tiled
-from .whole import Result, match
+# Public name -> (module, attribute in it).
+_PUBLIC = {
+    "DataError": ("data.datasets", "DataError"),
+    "ImageError": ("io.images", "ImageError"),
+    "Job": ("batch", "Job"),
+    "OptionError": ("params", "OptionError"),
+    "Pair": ("data.datasets", "Pair"),
+    "Result": ("whole", "Result"),
+    "TiledResult": ("tiled.run", "TiledResult"),
+    "bench_rows": ("eval.bench", "bench_rows"),
+    "compile_kernels": ("prepare", "compile_kernels"),
+    "dataset_names": ("data.datasets", "names"),
+    "jobs_from_folders": ("batch", "jobs_from_folders"),
+    "jobs_from_manifest": ("batch", "jobs_from_manifest"),
+    "load_dataset": ("data.datasets", "load"),
+    "match": ("whole", "match"),
+    "match_files": ("files", "match_files"),
+    "match_many": ("batch", "match_many"),
+    "match_tiled": ("tiled.run", "match_tiled"),
+    "read_disparity": ("io.formats", "read_disparity"),
+    "read_image": ("io.images", "read_image"),
+    "run_bench": ("eval.bench", "run_bench"),
+    "scan_folder": ("data.layouts", "scan"),
+    "score": ("eval.scoring", "score"),
+    "sweep_rows": ("eval.sweep", "sweep_rows"),
+    "synthetic_pair": ("data.synth", "render"),
+    "total_rows": ("eval.bench", "total_rows"),
+    "write_disparity": ("io.formats", "write_disparity"),
+}
+_SUBMODULES = {"batch", "data", "distributed", "eval", "executor", "files", "io", "kernels",
+               "paper", "params", "pipeline", "prepare", "tau", "tiled", "whole"}
 
-try:
-    __version__ = version("csw")
-except PackageNotFoundError:  # running from a source tree that was not installed
-    __version__ = "0.0.0+unknown"
 
-__all__ = ["DataError", "ImageError", "Job", "OptionError", "Pair", "Result", "TiledResult",
-           "bench_rows", "dataset_names", "jobs_from_folders", "jobs_from_manifest",
-           "kernels", "load_dataset", "match", "match_files", "match_many", "match_tiled",
-           "params", "read_disparity", "read_image", "run_bench", "scan_folder", "score",
-           "sweep_rows", "synthetic_pair", "total_rows", "write_disparity"]
+def __getattr__(name):
+    if name in _PUBLIC:
+        module, attribute = _PUBLIC[name]
+        value = getattr(importlib.import_module(f".{module}", __name__), attribute)
+    elif name in _SUBMODULES:
+        value = importlib.import_module(f".{name}", __name__)
+    elif name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("csw")
+        except PackageNotFoundError:  # a source tree that was not installed
+            value = "0.0.0+unknown"
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted([*globals(), *_PUBLIC, *_SUBMODULES])
+
+
+__all__ = sorted(_PUBLIC)

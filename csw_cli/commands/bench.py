@@ -35,7 +35,7 @@ def literal_tau(ctx, param, value):
         raise click.BadParameter(str(exc)) from None
 
 
-@click.command(short_help="Score and time plain vs CSW matching (the paper's TABLE II).")
+@click.command()
 @opt.dataset_option(required=False)
 @opt.dataset_dir_option
 @opt.option("cost", multiple=True)

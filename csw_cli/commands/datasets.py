@@ -10,7 +10,7 @@ COLUMNS = [("name", "Dataset", 0), ("size", "Size", 0), ("range", "Disparities",
            ("description", "Description", 0)]
 
 
-@click.command(short_help="List the registered datasets.")
+@click.command()
 @opt.format_option
 @opt.data_dir_option
 def datasets(fmt, data_dir):

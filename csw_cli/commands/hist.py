@@ -14,7 +14,7 @@ COLUMNS = [("low", "From", 0), ("high", "To", 0), ("count", "Pixels", 0),
 PRESET = params.EXPERIMENT_PRESET
 
 
-@click.command(short_help="Histogram of the minimum-cost map m (the paper's Fig. 9).")
+@click.command()
 @click.argument("images", nargs=-1, type=click.Path(dir_okay=False))
 @opt.dataset_option(multiple=False, required=False)
 @opt.option("engine", preset=PRESET)

@@ -51,7 +51,7 @@ def memory_size(ctx, param, value):
     return size
 
 
-@click.command(short_help="Compute disparity maps for rectified pairs.")
+@click.command()
 @click.argument("left", type=click.Path(), required=False)
 @click.argument("right", type=click.Path(), required=False)
 @click.option("--output", "-o", type=click.Path(),

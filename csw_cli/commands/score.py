@@ -35,7 +35,7 @@ def truth_from_files(gt, gt_scale, masks, border):
         return truth, region_masks(np.isfinite(truth), border or 0, mask_images)
 
 
-@click.command(short_help="Score a disparity map against ground truth.")
+@click.command()
 @click.argument("disp", type=click.Path(exists=False))
 @click.option("--gt", type=click.Path(dir_okay=False),
               help="Ground-truth file (or use --dataset / --dataset-dir).")

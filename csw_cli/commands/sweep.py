@@ -34,7 +34,7 @@ def parse_ints(ctx, param, value):
     return values
 
 
-@click.command(short_help="Sweep tau and CSW rules: work saved against bad-1.")
+@click.command()
 @opt.dataset_option(required=False)
 @opt.dataset_dir_option
 @opt.option("cost", default=params.DEFAULTS["cost"])

@@ -18,7 +18,7 @@ def parse_size(ctx, param, value):
     return width, height
 
 
-@click.command(short_help="Write a synthetic stereo pair with exact ground truth.")
+@click.command()
 @click.argument("directory", type=click.Path(file_okay=False))
 @click.option("--size", default="450x375", show_default=True, callback=parse_size,
               help="WIDTHxHEIGHT.")
