@@ -3,7 +3,8 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test bench bench-peers bench-scale bench-startup tradeoff quality lint format clean
+.PHONY: run test bench bench-batch bench-peers bench-scale bench-startup tradeoff quality lint \
+	format clean
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -42,6 +43,9 @@ bench-scale: $(VENV)/.installed-dev
 
 bench-startup: $(VENV)/.installed-dev
 	scripts/bench_startup.sh
+
+bench-batch: $(VENV)/.installed-dev
+	scripts/bench_batch.sh
 
 tradeoff: $(VENV)/.installed-dev
 	scripts/tradeoff.sh

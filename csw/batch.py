@@ -4,6 +4,7 @@ out.  A pair that fails is reported in the summary and the others go on.
 
 import csv
 import json
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,12 +19,34 @@ from .whole import match
 
 @dataclass(frozen=True)
 class Job:
-    """One pair to match; ``problem`` is set when the pair can't even be formed."""
+    """One pair to match; ``problem`` is set when the pair can't even be formed.
+    ``where``: where the pair came from, for messages (a manifest's line, a file)."""
 
     name: str
     left: Path
     right: Path | None
     problem: str | None = None
+    where: str = ""
+
+
+def check_name(name, where):
+    """A name must be a plain file name: ValueError, saying where it came from, for one
+    that is empty, absolute, holds a path separator or '..', or a control character (a
+    NUL among them).  Manifests are shared files, and a name must never be a path."""
+    problem = None
+    if not name:
+        problem = "is empty"
+    elif any(ord(c) < 32 or ord(c) == 127 for c in name):
+        problem = "holds a control character"
+    elif "/" in name or "\\" in name or os.sep in name or (os.altsep and os.altsep in name):
+        problem = "holds a path separator"
+    elif ".." in name:
+        problem = "holds '..'"
+    elif len(name) >= 2 and name[1] == ":" and name[0].isalpha():
+        problem = "starts with a drive letter"
+    if problem:
+        raise ValueError(f"{where}: the name {name!r} {problem}; a pair's name must be a "
+                         "plain file name (letters, digits, '-', '_', '.')")
 
 
 def jobs_from_folders(left_dir, right_dir):
@@ -35,44 +58,101 @@ def jobs_from_folders(left_dir, right_dir):
     for left in sorted(p for p in left_dir.iterdir() if p.suffix.lower() in images):
         right = right_dir / left.name
         problem = None if right.is_file() else f"no {left.name} in {right_dir}"
-        jobs.append(Job(left.stem, left, right if problem is None else None, problem))
+        check_name(left.stem, str(left))
+        jobs.append(Job(left.stem, left, right if problem is None else None, problem,
+                        str(left)))
     if not jobs:
         raise ValueError(f"{left_dir} holds no images ({', '.join(images)})")
     return jobs
 
 
+HEADER = (["left", "right"], ["left", "right", "name"])
+
+
 def jobs_from_manifest(path):
-    """Pairs from a CSV manifest: ``left,right[,name]`` per line, paths relative to the
-    manifest's folder, '#' lines and blank lines ignored.  The name (default: the left
-    file's stem) names the output.  ValueError, naming the line, on a malformed one."""
+    """Pairs from a CSV manifest: ``left,right[,name]`` per record, paths relative to the
+    manifest's folder.  CSV quoting, a UTF-8 byte-order mark, blank lines, lines starting
+    with '#' and a header line ``left,right,name`` are allowed.  The name (default: the
+    left file's stem) names the outputs and must be a plain file name.  ValueError,
+    naming the line, on a malformed record or a bad name."""
     path = Path(path)
     try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: can't read the manifest ({exc})") from None
+        with open(path, newline="", encoding="utf-8-sig") as handle:
+            reader = csv.reader(handle)
+            records, start = [], 1
+            for fields in reader:  # each record with the line it starts on
+                records.append((start, fields))
+                start = reader.line_num + 1
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+        raise ValueError(f"{path}: can't read the manifest ({reason})") from None
     jobs = []
-    for number, fields in enumerate(csv.reader(text.splitlines()), start=1):
+    for number, fields in records:
         fields = [f.strip() for f in fields]
-        if not fields or not fields[0] or fields[0].startswith("#"):
+        where = f"{path}, line {number}"
+        if not any(fields) or fields[0].startswith("#"):
             continue
-        if len(fields) not in (2, 3) or not all(fields):
-            raise ValueError(f"{path}, line {number}: expected left,right or "
-                             f"left,right,name, got {','.join(fields)!r}")
+        if not jobs and [f.lower() for f in fields] in HEADER:
+            continue
+        if len(fields) not in (2, 3) or not (fields[0] and fields[1]):
+            raise ValueError(f"{where}: expected left,right or left,right,name, got "
+                             f"{','.join(fields)!r}")
         left, right = (path.parent / f for f in fields[:2])
-        jobs.append(Job(fields[2] if len(fields) == 3 else left.stem, left, right))
+        name = fields[2] if len(fields) == 3 else left.stem
+        check_name(name, where)
+        jobs.append(Job(name, left, right, where=where))
     if not jobs:
         raise ValueError(f"{path}: the manifest lists no pairs")
     return jobs
 
 
 def check_names(jobs):
-    """Two pairs must not write the same output: ValueError naming the first clash."""
+    """Two pairs must not write the same outputs, nor ones whose names differ only in
+    case (they collide on macOS and Windows): ValueError naming the first clash."""
     seen = {}
     for job in jobs:
-        if job.name in seen:
-            raise ValueError(f"pairs {seen[job.name]} and {job.left} would both write "
-                             f"{job.name!r}; give them names in a manifest")
-        seen[job.name] = job.left
+        key = job.name.casefold()
+        if key in seen:
+            first = seen[key]
+            raise ValueError(f"pairs {first.where or first.left} and {job.where or job.left} "
+                             f"would both write {job.name!r}"
+                             + ("" if first.name == job.name else
+                                f" (as {first.name!r}: names that differ only in case "
+                                "collide on macOS and Windows)")
+                             + "; give them distinct names in a manifest")
+        seen[key] = job
+
+
+def _inside(path, folder):
+    """Whether ``path``, its links resolved, lies in ``folder`` (resolved)."""
+    real, base = os.path.realpath(path), os.path.realpath(folder)
+    return os.path.dirname(real) == base
+
+
+def check_outputs(jobs, outputs, out_dir, summary):
+    """Before any work: every output (per job, a dict of role -> path) resolves, links
+    followed, to a file directly in ``out_dir``, and neither an output nor the summary is
+    an input of the batch.  ValueError (one line) naming the first offender."""
+    inputs = {}
+    for job in jobs:
+        for side in (job.left, job.right):
+            if side is not None:
+                inputs.setdefault(os.path.realpath(side), job)
+    for job, paths in zip(jobs, outputs, strict=True):
+        for path in paths.values():
+            if not _inside(path, out_dir):
+                raise ValueError(f"{job.where or job.left}: {path} resolves to "
+                                 f"{os.path.realpath(path)}, outside the output folder "
+                                 f"{out_dir}; csw won't write there")
+            owner = inputs.get(os.path.realpath(path))
+            if owner is not None:
+                raise ValueError(f"{job.where or job.left}: the output {path} is an input "
+                                 f"of {owner.where or owner.left}; an output must not "
+                                 "overwrite an input")
+    owner = inputs.get(os.path.realpath(summary))
+    if owner is not None:
+        raise OptionError("summary", f"the summary {summary} is an input of "
+                                     f"{owner.where or owner.left}")
 
 
 def run_job(task, **match_options):
@@ -105,7 +185,9 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     jobs : list of Job
         From :func:`jobs_from_folders` or :func:`jobs_from_manifest`.
     out_dir : path
-        An existing folder (on a cluster: one every worker can write).
+        The folder for the maps, created with its parents if missing (on a cluster: one
+        every worker can write).  Every output must resolve into it, and no output may
+        be an input of the batch: both are checked before any work.
     suffix : {".pfm", ".png", ".npy"}
     overwrite : bool
         Redo pairs whose output exists (default: skip them, so a rerun resumes).
@@ -130,19 +212,26 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         raise ValueError(f"suffix must be one of {', '.join(suffixes('whole'))}, got "
                          f"{suffix!r}")
     out_dir = Path(out_dir)
-    if not out_dir.is_dir():
-        raise ValueError(f"{out_dir} is not a folder; create it first")
-    check_names(jobs)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OptionError("output_dir", f"{out_dir} exists and is not a folder")
     resolved = resolve(**match_options)  # bad options fail before any work
     try:
         check_range(f"map{suffix}", resolved["dmax"])
     except ValueError as exc:
         raise OptionError("dmax", str(exc)) from None
+    check_names(jobs)
     summary = Path(summary) if summary else out_dir / "summary.json"
+    outputs = [{"map": out_dir / f"{job.name}{suffix}"} for job in jobs]
+    check_outputs(jobs, outputs, out_dir, summary)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OptionError("output_dir", f"can't create the folder {out_dir} "
+                                        f"({exc.strerror or exc})") from None
     entries = {}
     todo = []
-    for i, job in enumerate(jobs):
-        output = out_dir / f"{job.name}{suffix}"
+    for i, (job, paths) in enumerate(zip(jobs, outputs, strict=True)):
+        output = paths["map"]
         if output.exists() and not overwrite:
             entries[i] = {"name": job.name, "left": str(job.left), "right": str(job.right),
                           "output": str(output), "status": "skipped"}

@@ -62,8 +62,9 @@ def memory_size(ctx, param, value):
               help="Many pairs: a CSV file of left,right[,name] lines (paths relative to "
                    "it). Needs --output-dir.")
 @click.option("--output-dir", "-O", type=click.Path(file_okay=False),
-              help="Many pairs: the folder for their maps (NAME.pfm ...) and summary.json. "
-                   "LEFT and RIGHT may then be folders, paired by file name.")
+              help="Many pairs: the folder for their maps (NAME.pfm ...) and summary.json, "
+                   "created if missing. LEFT and RIGHT may then be folders, paired by file "
+                   "name.")
 @click.option("--suffix", type=click.Choice(suffixes("whole")), default=".pfm",
               show_default=True, help="Many pairs: the format of each map.")
 @click.option("--overwrite/--skip-existing", default=False, show_default=True,
@@ -171,9 +172,6 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
     if output_dir is None:
         raise click.UsageError("matching many pairs needs --output-dir DIR")
     out = Path(output_dir)
-    if not out.is_dir():
-        raise click.BadParameter(f"folder {output_dir!r} does not exist; create it first",
-                                 param_hint="--output-dir")
     with opt.library_errors("--manifest" if manifest else "LEFT"):
         jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left, right)
     with opt.library_errors(), cluster(workers, scheduler) as client:

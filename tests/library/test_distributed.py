@@ -110,3 +110,43 @@ def test_the_stripes_of_one_pair_as_cluster_tasks(tmp_path, client):
     want = csw.match(left, right, dmax=20, subpixel="parabola", median=3).disparity
     np.testing.assert_array_equal(tifffile.imread(tmp_path / "d.tif"), want)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.tif", "l.tif", "r.tif"]
+
+
+def test_a_tls_scheduler_with_dasks_own_security_settings(tmp_path):
+    """--scheduler tls://... uses Dask's TLS configuration (here its environment variables):
+    the batch runs over an encrypted connection to a scheduler that requires one."""
+    import subprocess
+    import sys
+
+    from distributed import LocalCluster
+    from distributed.security import Security
+
+    cert, key = tmp_path / "cert.pem", tmp_path / "key.pem"
+    made = subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes",
+                           "-keyout", str(key), "-out", str(cert), "-days", "1", "-subj",
+                           "/CN=localhost", "-addext",
+                           "subjectAltName=IP:127.0.0.1,DNS:localhost"],
+                          capture_output=True, text=True)
+    if made.returncode != 0:
+        pytest.skip(f"openssl can't make a certificate here: {made.stderr[-200:]}")
+    files = {f"tls_{role}_{part}": str(path) for role in ("scheduler", "worker", "client")
+             for part, path in (("cert", cert), ("key", key))}
+    security = Security(tls_ca_file=str(cert), require_encryption=True, **files)
+    write_pairs(tmp_path, 2)
+    with LocalCluster(n_workers=1, processes=False, protocol="tls://", host="127.0.0.1",
+                      security=security, dashboard_address=None) as cluster:
+        address = cluster.scheduler_address
+        assert address.startswith("tls://")
+        env = dict(os.environ, DASK_DISTRIBUTED__COMM__TLS__CA_FILE=str(cert),
+                   DASK_DISTRIBUTED__COMM__TLS__CLIENT__CERT=str(cert),
+                   DASK_DISTRIBUTED__COMM__TLS__CLIENT__KEY=str(key),
+                   DASK_DISTRIBUTED__COMM__REQUIRE_ENCRYPTION="True")
+        args = [sys.executable, "-m", "csw_cli", "match", str(tmp_path / "l"),
+                str(tmp_path / "r"), "-O", str(tmp_path / "out"), "--dmax", "12",
+                "--scheduler", address]
+        done = subprocess.run(args, env=env, capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stderr
+        assert json.loads((tmp_path / "out" / "summary.json").read_text())["counts"]["ok"] == 2
+        plain = subprocess.run([*args[:-1], address.replace("tls://", "tcp://"),
+                                "--overwrite"], capture_output=True, text=True, timeout=600)
+        assert plain.returncode == 2 and "can't reach the Dask scheduler" in plain.stderr
