@@ -30,6 +30,16 @@ def pair_files(tmp_path, small_scene):
     return tmp_path / "left.png", tmp_path / "right.png"
 
 
+@pytest.fixture
+def lr_pngs(tmp_path):
+    """l.png and r.png of a small synthetic scene (80x48, d up to 10) in a fresh folder,
+    which is returned."""
+    left, right, _, _ = render(80, 48, dmax=10, seed=3)
+    write_png(tmp_path / "l.png", left)
+    write_png(tmp_path / "r.png", right)
+    return tmp_path
+
+
 @pytest.fixture(scope="session")
 def data_dir():
     """The Middlebury data folder from CSW_DATA_DIR.

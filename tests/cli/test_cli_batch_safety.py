@@ -34,11 +34,8 @@ def snapshot(root, skip=None):
 
 
 @pytest.fixture
-def pair(tmp_path):
-    left, right, _, _ = render(40, 24, dmax=8, seed=5)
-    write_png(tmp_path / "l.png", left)
-    write_png(tmp_path / "r.png", right)
-    return tmp_path
+def pair(lr_pngs):
+    return lr_pngs
 
 
 def test_the_reproduction_writes_nothing_and_exits_2(pair):
@@ -46,7 +43,7 @@ def test_the_reproduction_writes_nothing_and_exits_2(pair):
     (pair / "pairs.csv").write_text("l.png,r.png,../l\n")
     before = snapshot(pair)
     result = invoke("match", "--manifest", pair / "pairs.csv", "-O", pair / "out",
-                    "--suffix", ".png", "--overwrite", "--dmax", 8)
+                    "--suffix", ".png", "--overwrite", "--dmax", 10)
     assert result.exit_code == 2 and "line 1" in result.output
     assert len(result.output.strip().splitlines()[-1]) < 300
     assert snapshot(pair) == before and not (pair / "out").exists()
@@ -60,7 +57,7 @@ def test_the_reproduction_writes_nothing_and_exits_2(pair):
 def test_a_name_that_is_not_a_plain_name_is_refused(pair, name, problem):
     (pair / "m.csv").write_text(f"# pairs\nl.png,r.png,ok\nl.png,r.png,{name}\n")
     before = snapshot(pair)
-    result = invoke("match", "--manifest", pair / "m.csv", "-O", pair / "out", "--dmax", 8)
+    result = invoke("match", "--manifest", pair / "m.csv", "-O", pair / "out", "--dmax", 10)
     assert result.exit_code == 2, result.output
     assert "line 3" in result.output and problem in result.output
     assert snapshot(pair) == before and not (pair / "out").exists()
@@ -78,15 +75,15 @@ def test_an_empty_name_and_names_that_differ_in_case_are_refused(pair):
 
 def test_an_output_that_is_an_input_is_refused(pair):
     (pair / "out").mkdir()
-    write_png(pair / "out" / "x.png", render(40, 24, dmax=8, seed=5)[0])
+    write_png(pair / "out" / "x.png", render(80, 48, dmax=10, seed=5)[0])
     (pair / "m.csv").write_text("out/x.png,r.png,x\n")
     before = snapshot(pair)
     result = invoke("match", "--manifest", pair / "m.csv", "-O", pair / "out",
-                    "--suffix", ".png", "--overwrite", "--dmax", 8)
+                    "--suffix", ".png", "--overwrite", "--dmax", 10)
     assert result.exit_code == 2 and "is an input" in result.output
     assert snapshot(pair) == before
     result = invoke("match", "--manifest", pair / "m.csv", "-O", pair / "out",
-                    "--summary", pair / "r.png", "--dmax", 8)
+                    "--summary", pair / "r.png", "--dmax", 10)
     assert result.exit_code == 2 and "summary" in result.output
     assert snapshot(pair) == before
 
@@ -96,7 +93,7 @@ def test_an_output_linked_outside_the_folder_is_refused(pair):
     (pair / "out" / "p.pfm").symlink_to(pair / "elsewhere.pfm")
     (pair / "m.csv").write_text("l.png,r.png,p\n")
     result = invoke("match", "--manifest", pair / "m.csv", "-O", pair / "out", "--overwrite",
-                    "--dmax", 8)
+                    "--dmax", 10)
     assert result.exit_code == 2 and "outside the output folder" in result.output
     assert not (pair / "elsewhere.pfm").exists()
 
@@ -104,7 +101,7 @@ def test_an_output_linked_outside_the_folder_is_refused(pair):
 def test_the_output_folder_is_created_and_a_file_there_is_an_error(pair):
     (pair / "m.csv").write_text("l.png,r.png,p\n")
     deep = pair / "a" / "b" / "out"
-    result = invoke("match", "--manifest", pair / "m.csv", "-O", deep, "--dmax", 8)
+    result = invoke("match", "--manifest", pair / "m.csv", "-O", deep, "--dmax", 10)
     assert result.exit_code == 0, result.output
     assert (deep / "p.pfm").is_file() and (deep / "summary.json").is_file()
     (pair / "file").write_text("x")
@@ -130,12 +127,12 @@ def test_the_manifest_is_read_as_csv(pair):
 def test_overwrite_redoes_outputs_that_exist(pair):
     (pair / "m.csv").write_text("l.png,r.png,p\n")
     out = pair / "out"
-    assert invoke("match", "--manifest", pair / "m.csv", "-O", out, "--dmax", 8).exit_code == 0
+    assert invoke("match", "--manifest", pair / "m.csv", "-O", out, "--dmax", 10).exit_code == 0
     want = (out / "p.pfm").read_bytes()
     (out / "p.pfm").write_bytes(b"stale")
-    assert invoke("match", "--manifest", pair / "m.csv", "-O", out, "--dmax", 8).exit_code == 0
+    assert invoke("match", "--manifest", pair / "m.csv", "-O", out, "--dmax", 10).exit_code == 0
     assert (out / "p.pfm").read_bytes() == b"stale"  # skipped: a rerun resumes
-    assert invoke("match", "--manifest", pair / "m.csv", "-O", out, "--dmax", 8,
+    assert invoke("match", "--manifest", pair / "m.csv", "-O", out, "--dmax", 10,
                   "--overwrite").exit_code == 0
     assert (out / "p.pfm").read_bytes() == want
 
@@ -154,13 +151,13 @@ def test_a_full_disk_fails_one_pair_and_leaves_no_partial_file(pair, monkeypatch
 
         def half_then_full(tmp):
             with open(tmp, "wb") as f:
-                f.write(b"Pf\n40 24\n-1\n" + b"\0" * 100)
+                f.write(b"Pf\n80 48\n-1\n" + b"\0" * 100)
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(tmp))
         return half_then_full
 
     monkeypatch.setattr(formats, "pfm_writer", third_fails)
     out = pair / "out"
-    result = invoke("match", "--manifest", pair / "m.csv", "-O", out, "--dmax", 8)
+    result = invoke("match", "--manifest", pair / "m.csv", "-O", out, "--dmax", 10)
     assert result.exit_code == 1 and "No space left on device" in result.output
     summary = json.loads((out / "summary.json").read_text())
     assert summary["counts"] == {"ok": 3, "skipped": 0, "failed": 1}
@@ -195,7 +192,7 @@ def test_no_manifest_writes_outside_the_folder_or_changes_an_input(pair, records
 
     shutil.rmtree(pair / "out", ignore_errors=True)
     (pair / "out").mkdir()
-    write_png(pair / "out" / "l.png", render(40, 24, dmax=8, seed=6)[0])
+    write_png(pair / "out" / "l.png", render(80, 48, dmax=10, seed=6)[0])
     buffer = io.StringIO()
     writer = csv.writer(buffer)
     for left, right, name in records:
@@ -204,7 +201,7 @@ def test_no_manifest_writes_outside_the_folder_or_changes_an_input(pair, records
     before = snapshot(pair.parent, skip=pair / "out")
     inside_before = {"l.png": digest(pair / "out" / "l.png")}
     result = invoke("match", "--manifest", pair / "m.csv", "-O", pair / "out", "--suffix",
-                    suffix, "--dmax", 8, "--preset", "raw", *(["--overwrite"] if overwrite
+                    suffix, "--dmax", 10, "--preset", "raw", *(["--overwrite"] if overwrite
                                                               else []))
     assert result.exit_code in (0, 1, 2), result.output
     assert snapshot(pair.parent, skip=pair / "out") == before

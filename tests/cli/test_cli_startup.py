@@ -11,18 +11,12 @@ import time
 import numpy as np
 import pytest
 
-from csw.data.synth import render
-from csw.io import write_png
-
 NOTICE = "compiling csw's kernels"
 
 
 @pytest.fixture
-def scene(tmp_path):
-    left, right, _, _ = render(80, 48, dmax=10, seed=3)
-    write_png(tmp_path / "l.png", left)
-    write_png(tmp_path / "r.png", right)
-    return tmp_path
+def scene(lr_pngs):
+    return lr_pngs
 
 
 def csw_command(folder, cache, output, *extra):
