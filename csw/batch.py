@@ -216,7 +216,7 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         raise OptionError("output_dir", f"{out_dir} exists and is not a folder")
     resolved = resolve(**match_options)  # bad options fail before any work
     try:
-        check_range(f"map{suffix}", resolved["dmax"])
+        check_range(f"map{suffix}", resolved["dmax"], resolved["dmin"])
     except ValueError as exc:
         raise OptionError("dmax", str(exc)) from None
     check_names(jobs)

@@ -66,7 +66,7 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
                "cost_map": cost_map}
     check_outputs({"left": left, "right": right}, outputs)
     try:
-        check_range(output, opts["dmax"])
+        check_range(output, opts["dmax"], opts["dmin"])
     except ValueError as exc:
         raise OptionError("dmax", str(exc)) from None
     if _use_stripes(left, right, output, confidence, memory_limit, client, opts):
@@ -82,7 +82,7 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     disp = result.disparity
     writers = [(output, disparity_writer(output, disp))]
     if preview is not None:
-        writers.append((preview, png_writer(colorize(disp, opts["dmax"]))))
+        writers.append((preview, png_writer(colorize(disp, opts["dmax"], opts["dmin"]))))
     if cost_map is not None:
         m = np.where(result.min_cost >= 0, result.min_cost, np.inf).astype(np.float32)
         writers.append((cost_map, pfm_writer(m)))

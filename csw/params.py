@@ -158,7 +158,8 @@ OPTIONS = {o.name: o for o in [
                 "distance)."),
     Option("window", "int", 9, low=1, odd=True,
            help="Odd window side (9 = the paper's 9x9)."),
-    Option("dmin", "int", 0, low=0, help="Smallest disparity searched."),
+    Option("dmin", "int", 0, help="Smallest disparity searched; below 0 for convergent "
+                                  "rigs and satellite pairs."),
     Option("dmax", "int", 64, low=0, help="Largest disparity searched (less than the width)."),
     Option("csw", "bool", False,
            help="Skip right pixels already claimed by a confident match."),

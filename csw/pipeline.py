@@ -58,7 +58,8 @@ def entries(args, stages, dtype, confidence=False):
     return kernels.entries(args["engine"], args["cost"], dtype, args["window"],
                            stages["census_window"], args.get("csw", False),
                            stages["lr_check"] is not None,
-                           confidence or needs_extras(stages)) + filter_entries(stages)
+                           confidence or needs_extras(stages),
+                           args.get("dmin", 0)) + filter_entries(stages)
 
 
 def needs_extras(stages):
@@ -158,9 +159,11 @@ def match_rows(left, right, kernel_args, stages, confidence=False):
     raw = kernels.match(a, b, census_window=stages["census_window"],
                         extras=confidence or needs_extras(stages),
                         right_map=stages["lr_check"] is not None, **kernel_args)
-    valid = raw.disparity >= 0
+    invalid = kernels.invalid(kernel_args["dmin"])
+    valid = raw.disparity != invalid
     if stages["lr_check"] is not None:
-        valid &= lr_consistent(raw.disparity, raw.right_disparity, stages["lr_check"])
+        valid &= lr_consistent(raw.disparity, raw.right_disparity, stages["lr_check"],
+                               invalid)
     if stages["uniqueness_ratio"] is not None:
         valid &= distinct(raw.min_cost, raw.second_cost, stages["uniqueness_ratio"])
     if stages["texture_threshold"] is not None:

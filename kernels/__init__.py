@@ -12,7 +12,16 @@ until something must be compiled.
 """
 
 from . import contract, native
-from .contract import COSTS, ENGINE_NAMES, INVALID, RULES, MatchResult, candidate_count
+from .contract import (
+    COSTS,
+    ENGINE_NAMES,
+    INVALID,
+    NEG_INVALID,
+    RULES,
+    MatchResult,
+    candidate_count,
+    invalid,
+)
 
 
 def _engines():
@@ -29,7 +38,7 @@ def match(left, right, *, engine, **options):
     return _engines()[engine](left, right, **options)
 
 
-def entries(engine, cost, pixels, window, census_window, csw, right_map, extras):
+def entries(engine, cost, pixels, window, census_window, csw, right_map, extras, dmin=0):
     """The compiled entries (kernels/native.py) a match with these settings loads: its
     census transform, if any, and its engine's variant."""
     from . import census, fast
@@ -42,7 +51,7 @@ def entries(engine, cost, pixels, window, census_window, csw, right_map, extras)
         compared, code = contract.census_dtype(census_window), SHD
     module = fast if engine == "fast" else window_engine
     return census.entries(pixels, cost, census_window) + \
-        module.entries(code, compared, window, csw, right_map, extras)
+        module.entries(code, compared, window, csw, right_map, extras, dmin)
 
 
 def __getattr__(name):
@@ -54,6 +63,6 @@ def __getattr__(name):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["COSTS", "ENGINES", "ENGINE_NAMES", "INVALID", "RULES", "MatchResult",
-           "candidate_count", "contract", "entries", "match", "match_fast", "match_window",
-           "native"]
+__all__ = ["COSTS", "ENGINES", "ENGINE_NAMES", "INVALID", "NEG_INVALID", "RULES",
+           "MatchResult", "candidate_count", "contract", "entries", "invalid", "match",
+           "match_fast", "match_window", "native"]

@@ -36,15 +36,24 @@ RULE_SLACK = {RULE_LITERAL: 0, RULE_UNIQUE: 1}
 # differences, so 1.12 ** 2 ~ 1.25 asks the same distinctiveness of them.
 DEFAULT_UNIQUENESS = {"sad": 12, "ssd": 25, "shd": 12, "census": 12}
 
-# One invalid-disparity convention everywhere: -1 in integer maps (inf in PFM files).
+# One invalid-disparity convention everywhere: -1 in integer maps (inf in PFM files,
+# NaN in float maps); where the range reaches below 0, -1 is a disparity, and integer
+# maps mark invalid pixels with NEG_INVALID instead (see invalid()).
 INVALID = -1
+NEG_INVALID = int(np.iinfo(np.int32).min)
+
+
+def invalid(dmin):
+    """The integer maps' invalid value for a range starting at dmin."""
+    return INVALID if dmin >= 0 else NEG_INVALID
 
 
 @dataclass
 class MatchResult:
     """What a matcher returns.
 
-    disparity: int32 (H, W); the chosen d, or INVALID (-1) where no candidate was left.
+    disparity: int32 (H, W); the chosen d, or invalid(dmin) (-1, or NEG_INVALID for a
+        range reaching below 0) where no candidate was left.
     min_cost:  int64 (H, W); the minimum cost m at the chosen d, or -1 where invalid.
     evaluated: number of (pixel, d) candidates whose cost was evaluated.
     candidates: number of candidates plain matching evaluates on the same rows, so
@@ -151,8 +160,9 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
             f"window {window} is larger than the image ({width}x{height}); use a smaller window"
         )
     dmin, dmax = int(dmin), int(dmax)
-    if dmin < 0:
-        raise ValueError(f"dmin must be >= 0, got {dmin}")
+    if dmin <= -width:
+        raise ValueError(f"dmin ({dmin}) must be greater than minus the image width "
+                         f"({width}); raise dmin")
     if dmin > dmax:
         raise ValueError(f"dmin ({dmin}) must not exceed dmax ({dmax})")
     if dmax >= width:
@@ -218,6 +228,8 @@ def resolve_uniqueness(cost, uniqueness):
 
 def candidate_count(width, dmin, dmax):
     """Candidates plain matching evaluates on one row of ``width`` pixels."""
-    # Pixel x has the candidates d in [dmin, min(dmax, x)].
+    # Pixel x has the candidates d in [max(dmin, x - width + 1), min(dmax, x)]: the
+    # right pixel x - d lies in the image.
     x = np.arange(width)
-    return int(np.clip(np.minimum(dmax, x) - dmin + 1, 0, None).sum())
+    low = np.maximum(dmin, x - width + 1)
+    return int(np.clip(np.minimum(dmax, x) - low + 1, 0, None).sum())

@@ -53,12 +53,12 @@ def accumulator_dtype(image_dtype, cost, window):
     raise ValueError("window too large for exact 64-bit costs")
 
 
-def variant(cost, pixels, window, csw, right_map, extras):
+def variant(cost, pixels, window, csw, right_map, extras, dmin=0):
     """The compiled variant (kernels/native.py) a match with these settings runs.  cost:
     the contract's cost code after census codes became SHD (contract.SAD, SSD, SHD)."""
     acc = accumulator_dtype(pixels, cost, window)
     return (COST_NAMES.get(cost, "shd"), dtype_name(pixels), dtype_name(acc), bool(csw),
-            bool(right_map), bool(extras))
+            bool(right_map), bool(extras), dmin < 0)
 
 
 def stripe_bounds(height, window, threads, rows):
@@ -107,6 +107,7 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                          "narrow dmin..dmax or use the window engine")
     n_threads = runtime.thread_count(threads)
     h = s.window // 2
+    shift = max(0, -s.dmin)  # a negative range reaches right pixels beyond the image
     if s.cost == CENSUS:  # the codes, written padded (and reversed) by the transform
         left_p = census_transform(left, census_window, threads, pad=h)
         right_rev = census_transform(right, census_window, threads, pad=h, reverse=True)
@@ -114,10 +115,12 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     else:
         left_p = pad_edge(left, h, left.dtype)
         right_rev = np.ascontiguousarray(pad_edge(right, h, right.dtype)[:, ::-1])
+    if shift:  # the right image padded `shift` columns more beyond its right edge
+        right_rev = np.ascontiguousarray(np.pad(right_rev, ((0, 0), (shift, 0)), mode="edge"))
     pixels = left_p.dtype
     acc = accumulator_dtype(pixels, s.cost, s.window)
     run = native.entry("fast", variant(s.cost, pixels, s.window, s.csw, s.right_map,
-                                       s.extras))
+                                       s.extras, s.dmin))
     disp = np.empty((height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
     maps = extra_maps(disp.shape, s)
@@ -132,8 +135,8 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     def stripe(i, stop):
         # Each stripe owns its scratch, allocated in its own thread.
         scratch = [np.empty((wp, ndisp), acc), np.empty(ndisp, acc),
-                   np.empty(width, np.int32), np.empty(width, acc),
-                   np.empty(width, np.int16)]
+                   np.empty(width + shift, np.int32), np.empty(width + shift, acc),
+                   np.empty(width + shift, np.int16)]
         y0, y1 = stripes[i]
         return run([left_p, right_rev, *scratch, disp, min_cost, *maps, evaluated, stop],
                    [s.window, s.dmin, s.dmax, s.tau, s.rule, s.uniqueness, s.slack, y0, y1,
@@ -147,7 +150,7 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     return result(disp, min_cost, int(evaluated[rows].sum()), plain, s, maps)
 
 
-def entries(cost, pixels, window, csw, right_map, extras):
+def entries(cost, pixels, window, csw, right_map, extras, dmin=0):
     """The (kernel, variant) entries a match_fast with these settings loads."""
-    return [("fast", variant(cost, pixels, window, csw, right_map, extras))]
+    return [("fast", variant(cost, pixels, window, csw, right_map, extras, dmin))]
 

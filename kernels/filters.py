@@ -27,14 +27,15 @@ def _by_rows(kind, arrays, height, extra=(), scratch=None):
     runtime.run_stripes(stripe, count, count, work)
 
 
-def lr_consistent(disp, right_disp, limit):
-    """bool (H, W): d = disp[y, x] is valid (>= 0) and its right pixel's own match,
-    right_disp[y, x - d] (-1: none), differs from it by at most ``limit``.
+def lr_consistent(disp, right_disp, limit, invalid=-1):
+    """bool (H, W): d = disp[y, x] is valid (not ``invalid``, the maps' invalid value:
+    see contract.invalid) and its right pixel's own match, right_disp[y, x - d]
+    (``invalid``: none), differs from it by at most ``limit``.
 
     disp, right_disp: int32 (H, W)."""
     disp, right_disp = np.ascontiguousarray(disp), np.ascontiguousarray(right_disp)
     valid = np.empty(disp.shape, np.uint8)
-    _by_rows("lr", [disp, right_disp, valid], disp.shape[0], [int(limit)])
+    _by_rows("lr", [disp, right_disp, valid], disp.shape[0], [int(limit), int(invalid)])
     return valid.view(np.bool_)
 
 

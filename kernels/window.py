@@ -16,12 +16,12 @@ from . import native, runtime
 from .census import prepare
 from .contract import (
     DEFAULT_CENSUS_WINDOW,
-    INVALID,
     SAD,
     SSD,
     MatchResult,
     candidate_count,
     dtype_name,
+    invalid,
     validate,
 )
 
@@ -41,7 +41,7 @@ def extra_maps(shape, s):
     (the entries take arrays of the right type either way)."""
     rows = shape[0] if s.extras else 1
     costs = tuple(np.full((rows, shape[1]), -1, np.int64) for _ in range(3))
-    right = np.full((shape[0] if s.right_map else 1, shape[1]), INVALID, np.int32)
+    right = np.full((shape[0] if s.right_map else 1, shape[1]), invalid(s.dmin), np.int32)
     return (*costs, right)
 
 
@@ -58,15 +58,15 @@ def padded_type(pixels):
     return np.dtype(np.uint16) if np.dtype(pixels).itemsize <= 2 else np.dtype(pixels)
 
 
-def variant(cost, pixels, csw, right_map, extras):
+def variant(cost, pixels, csw, right_map, extras, dmin=0):
     """The compiled variant (kernels/native.py) a match with these settings runs."""
     return (COST_NAMES.get(cost, "shd"), dtype_name(padded_type(pixels)), bool(csw),
-            bool(right_map), bool(extras))
+            bool(right_map), bool(extras), dmin < 0)
 
 
-def entries(cost, pixels, window, csw, right_map, extras):
+def entries(cost, pixels, window, csw, right_map, extras, dmin=0):
     """The (kernel, variant) entries a match_window with these settings loads."""
-    return [("window", variant(cost, pixels, csw, right_map, extras))]
+    return [("window", variant(cost, pixels, csw, right_map, extras, dmin))]
 
 
 def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
@@ -96,7 +96,8 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     h = s.window // 2
     dtype = padded_type(left.dtype)
     left_p, right_p = pad_edge(left, h, dtype), pad_edge(right, h, dtype)
-    run = native.entry("window", variant(s.cost, left.dtype, s.csw, s.right_map, s.extras))
+    run = native.entry("window", variant(s.cost, left.dtype, s.csw, s.right_map, s.extras,
+                                         s.dmin))
     width = left.shape[1]
     ndisp = s.dmax - s.dmin + 1
     disp = np.empty((rows.size, width), np.int32)

@@ -60,7 +60,11 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
     ``extras`` a fourth item: a dict of second_cost, prev_cost, next_cost (int64, the
     least evaluated cost 2 or more from d, the costs at d -/+ 1; -1 where none) and
     right_disparity (int32: each right pixel's best left match d, smallest d on ties,
-    over evaluated candidates; -1 where none).
+    over evaluated candidates; invalid where none).
+
+    A candidate d needs its right pixel in the image: 0 <= x - d <= W - 1 (the upper
+    bound matters only for a range reaching below 0).  Invalid pixels of the integer
+    maps are -1, or int32's minimum for a range reaching below 0 (where -1 is a d).
 
     CSW rules: "literal" claims the right pixel when m <= tau, and a claim blocks every
     later pixel. "unique" claims only when also some evaluated candidate at least 2 away
@@ -76,17 +80,18 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
     rows = range(height) if rows is None else rows
     if slack is None:
         slack = 1 if rule == "unique" else 0
-    disp = np.full((len(rows), width), -1, np.int32)
+    invalid = -1 if dmin >= 0 else np.iinfo(np.int32).min
+    disp = np.full((len(rows), width), invalid, np.int32)
     mins = np.full((len(rows), width), -1, np.int64)
     more = {k: np.full((len(rows), width), -1, np.int64)
             for k in ("second_cost", "prev_cost", "next_cost")}
-    more["right_disparity"] = np.full((len(rows), width), -1, np.int32)
+    more["right_disparity"] = np.full((len(rows), width), invalid, np.int32)
     evaluated = 0
     for i, y in enumerate(rows):
         claimant = {}  # right column -> the column of the pixel that last claimed it
         seen = {}  # right column -> (cost, d) of its best match so far
         for x in range(width):
-            ds = [d for d in range(dmin, min(dmax, x) + 1)
+            ds = [d for d in range(max(dmin, x - width + 1), min(dmax, x) + 1)
                   if not (csw and x - claimant.get(x - d, x) > slack)]
             if not ds:
                 continue
@@ -145,23 +150,23 @@ def textured(image, window, cap, threshold):
     return out
 
 
-def lr_consistent(disp, right_disp, limit):
+def lr_consistent(disp, right_disp, limit, invalid=-1):
     height, width = disp.shape
     out = np.zeros((height, width), bool)
     for y in range(height):
         for x in range(width):
             d = int(disp[y, x])
-            if d >= 0:
+            if d != invalid:
                 back = int(right_disp[y, x - d])
-                out[y, x] = back >= 0 and abs(d - back) <= limit
+                out[y, x] = back != invalid and abs(d - back) <= limit
     return out
 
 
-def subpixel(disp, best, prev, nxt, fit):
+def subpixel(disp, best, prev, nxt, fit, invalid=-1):
     out = disp.astype(np.float64).copy()
     for (y, x), d in np.ndenumerate(disp):
         c, p, n = float(best[y, x]), float(prev[y, x]), float(nxt[y, x])
-        if d < 0 or p < 0 or n < 0:
+        if d == invalid or p < 0 or n < 0:
             continue
         denominator = p - 2 * c + n if fit == "parabola" else max(p, n) - c
         if denominator > 0:

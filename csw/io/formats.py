@@ -31,10 +31,15 @@ TIFF_TILE = 256
 
 
 def as_float_disparity(disp, dtype=np.float64):
-    """A disparity map in any of csw's conventions (int with -1 invalid, float with
-    NaN/inf or negative invalid) -> float (H, W) with NaN invalid."""
-    out = np.asarray(disp).astype(dtype)
-    out[~np.isfinite(out) | (out < 0)] = np.nan
+    """A disparity map in any of csw's conventions -> float (H, W) with NaN invalid.
+    Integer maps (the kernels'): -1, or int32's minimum for a range reaching below 0, is
+    invalid; float maps: NaN or inf is (a negative float is a disparity)."""
+    disp = np.asarray(disp)
+    out = disp.astype(dtype)
+    if np.issubdtype(disp.dtype, np.integer):
+        out[(disp == -1) | (disp == np.iinfo(np.int32).min)] = np.nan
+    else:
+        out[~np.isfinite(out)] = np.nan
     return out
 
 
@@ -51,19 +56,22 @@ def kitti_png_values(disp):
     values = as_float_disparity(disp)
     if np.nanmax(values, initial=0) > PNG_MAX_DISPARITY:
         raise ValueError(too_large_message(".png", float(np.nanmax(values))))
+    if np.nanmin(values, initial=0) < 0:
+        raise ValueError(negative_message(".png"))
     # KITTI stores 0 for invalid, so d = 0 is indistinguishable from invalid there.
     return np.where(np.isfinite(values), np.round(values * 256), 0).astype(np.uint16)
 
 
-def colorize(disp, dmax):
+def colorize(disp, dmax, dmin=0):
     """uint8 (H, W, 3) visualisation of a disparity map (any of csw's conventions): a
-    blue-to-red ramp, invalid black. Piecewise-linear 'jet' anchors, so no plotting
-    library is needed."""
+    blue-to-red ramp over dmin..dmax, invalid black. Piecewise-linear 'jet' anchors, so
+    no plotting library is needed."""
     anchors = np.array([[0, 0, 128], [0, 0, 255], [0, 255, 255], [255, 255, 0],
                         [255, 0, 0], [128, 0, 0]], dtype=np.float64)
     disp = as_float_disparity(disp)
     invalid = np.isnan(disp)
-    t = np.clip(np.nan_to_num(disp) / max(dmax, 1), 0, 1) * (len(anchors) - 1)
+    t = np.clip((np.nan_to_num(disp, nan=dmin) - dmin) / max(dmax - dmin, 1), 0, 1) \
+        * (len(anchors) - 1)
     lo = np.floor(t).astype(int)
     hi = np.minimum(lo + 1, len(anchors) - 1)
     frac = (t - lo)[..., None]
@@ -146,7 +154,7 @@ def _npy_writer(values):
 
 
 def _read_float_map(path, scale):
-    """PFM or NPY: as stored, non-finite (and, for NPY, negative) unknown."""
+    """PFM or NPY: as stored, non-finite unknown."""
     if path.suffix.lower() == ".pfm":
         disp = read_pfm(path)
         disp = np.where(np.isfinite(disp), disp, np.nan).astype(np.float32)
@@ -157,7 +165,7 @@ def _read_float_map(path, scale):
             raise ImageError(f"{path}: not a readable .npy array ({exc})") from None
         if disp.ndim != 2:
             raise ImageError(f"{path}: expected a 2-D array, got shape {disp.shape}")
-        disp[~np.isfinite(disp) | (disp < 0)] = np.nan
+        disp[~np.isfinite(disp)] = np.nan
     return disp / scale if scale else disp
 
 
@@ -175,7 +183,7 @@ def _read_image_map(path, scale):
 def read_disparity(path, scale=None):
     """Read a disparity map (or ground truth) as float32 (H, W), NaN unknown.
 
-    PFM and NPY as stored (non-finite unknown; NPY negative too); images (PNG, PGM ...):
+    PFM and NPY as stored (non-finite unknown); images (PNG, PGM ...):
     value / scale, 0 unknown, the scale 256 for 16-bit (KITTI) and 1 for 8-bit images
     unless given (Middlebury ground truth: see the dataset's scale).
     """
@@ -234,7 +242,7 @@ def _png_stripes(path, shape, blocks):
     return write
 
 
-def preview_stripes(shape, blocks, dmax):
+def preview_stripes(shape, blocks, dmax, dmin=0):
     """A ``write_to(tmp)`` for an 8-bit colour PNG of a map (see colorize), a band at a
     time."""
     import png
@@ -243,7 +251,7 @@ def preview_stripes(shape, blocks, dmax):
 
     def write(tmp):
         rows = (row.reshape(-1) for _, block in blocks(TIFF_TILE)
-                for row in colorize(block, dmax))
+                for row in colorize(block, dmax, dmin))
         with open(tmp, "wb") as f:
             png.Writer(width, height, greyscale=False, bitdepth=8).write(f, rows)
     return write
@@ -349,11 +357,18 @@ def too_large_message(suffix, dmax):
             f"write {', '.join(s for s in suffixes('map') if FORMATS[s].largest > dmax)}")
 
 
-def check_range(path, dmax):
-    """ValueError when the format of ``path`` can't hold disparities up to ``dmax``."""
+def negative_message(suffix):
+    return (f"a {suffix} disparity map can't hold negative disparities; write "
+            f"{', '.join(s for s in suffixes('map') if FORMATS[s].floats)}")
+
+
+def check_range(path, dmax, dmin=0):
+    """ValueError when the format of ``path`` can't hold disparities dmin..dmax."""
     suffix = Path(path).suffix.lower()
     if suffix in FORMATS and dmax > FORMATS[suffix].largest:
         raise ValueError(too_large_message(suffix, dmax))
+    if suffix in FORMATS and dmin < 0 and not FORMATS[suffix].floats:
+        raise ValueError(negative_message(suffix))
 
 
 def disparity_writer(path, disp):

@@ -101,7 +101,7 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
     opts = resolve(**options)
     output = Path(output)
     format_of(output, "stripes")
-    check_range(output, opts["dmax"])
+    check_range(output, opts["dmax"], opts["dmin"])
     if confidence is not None:
         format_of(confidence, "confidence")
     if client is not None and not all(isinstance(p, (str, Path)) for p in (left, right)):
@@ -187,7 +187,7 @@ def _run_passes(left, right, output, confidence, preview, layout, args, st, clie
         items = []
         if preview is not None:
             items.append((Path(preview), preview_stripes(
-                shape, store_blocks(final["disparity"]), args["dmax"])))
+                shape, store_blocks(final["disparity"]), args["dmax"], args["dmin"])))
         stores = ((output, final["disparity"]), (confidence, final.get("confidence")))
         for path, store in stores:
             if path is not None and Path(path).suffix.lower() != ".zarr":

@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from ..config import SERIAL
-from ..contract import INVALID, RULE_UNIQUE
+from ..contract import INVALID, NEG_INVALID, RULE_UNIQUE
 from .common import blocked, ctpop, dtype_of, is_distinct, stop_requested
 
 # Disparity ranges up to this pick the minimum with packed keys (see select_row).
@@ -32,9 +32,10 @@ SCALARS = ("window", "dmin", "dmax", "tau", "rule", "uniqueness", "slack", "y0",
            "never")
 
 
-def spec(cost, pixels, accumulator, csw, right_map, extras):
+def spec(cost, pixels, accumulator, csw, right_map, extras, negative=False):
     """The stripe worker of a variant.  cost: "sad", "ssd" or "shd" (census codes are
-    compared with shd); pixels, accumulator: type names ("u8", "u16", "i32", ...)."""
+    compared with shd); pixels, accumulator: type names ("u8", "u16", "i32", ...);
+    negative: the range starts below 0 (see _make)."""
     from ..native import Spec
 
     pix, acc = dtype_of(pixels), dtype_of(accumulator)
@@ -45,15 +46,23 @@ def spec(cost, pixels, accumulator, csw, right_map, extras):
               (i32, 2), (i64, 2),  # disp, min_cost (H, W)
               (i64, 2), (i64, 2), (i64, 2), (i32, 2),  # second, prev, next, right_disp
               (i64, 1), (np.dtype(np.uint8), 1))  # evaluated (H,), stop (1,)
-    return Spec(_make(cost, acc.type, bool(csw), bool(right_map), bool(extras)), arrays,
-                len(SCALARS))
+    return Spec(_make(cost, acc.type, bool(csw), bool(right_map), bool(extras),
+                      bool(negative)), arrays, len(SCALARS))
 
 
-def _make(cost, acc, csw, right_map, extras):
+def _make(cost, acc, csw, right_map, extras, negative):
     """The workers of one variant; ``cost``, the accumulator type ``acc``, ``csw``,
-    ``right_map`` and ``extras`` are compile-time constants in them, so the branches they
-    decide are folded away."""
+    ``right_map``, ``extras`` and ``negative`` are compile-time constants in them, so the
+    branches they decide are folded away.
+
+    negative: dmin < 0.  A candidate's right pixel x - d may then lie beyond the image's
+    right edge: the right image is padded s = -dmin columns more on that side (so the
+    column sums stay defined) and such candidates, k < lo(x), are not candidates; the
+    right-pixel arrays (B-map, right map) hold s entries more at the front, and invalid
+    pixels are NEG_INVALID, since -1 is a disparity here.
+    """
     keyed = acc == np.uint16  # sum and index pack into one 32-bit key
+    invalid = NEG_INVALID if negative else INVALID
 
     @njit(**SERIAL)
     def psi(a, b):
@@ -73,10 +82,11 @@ def _make(cost, acc, csw, right_map, extras):
         row.  left, right_rev: (Wp,) padded rows, the right one reversed, so
         right[j - d] = right_rev[Wp - 1 - j + d].  col_sums: (Wp, D)."""
         wp, ndisp = col_sums.shape
-        for j in range(dmin, wp):
+        wr = right_rev.shape[0]  # wp, or wp + s for a negative range
+        for j in range(max(dmin, 0), wp):
             sums = col_sums[j]
             lv = left[j]
-            r = right_rev[wp - 1 - j + dmin:]
+            r = right_rev[wr - 1 - j + dmin:]
             for k in range(min(ndisp, j - dmin + 1)):
                 sums[k] = sums[k] + psi(lv, r[k])
 
@@ -86,10 +96,11 @@ def _make(cost, acc, csw, right_map, extras):
         ones in one pass.  Unsigned sums may wrap on the way: the arithmetic is exact
         modulo their width, and every true value fits."""
         wp, ndisp = col_sums.shape
-        for j in range(dmin, wp):
+        wr = right_rev.shape[0]
+        for j in range(max(dmin, 0), wp):
             sums = col_sums[j]
             lv, lv_sub = left[j], left_sub[j]
-            base = wp - 1 - j + dmin
+            base = wr - 1 - j + dmin
             r, r_sub = right_rev[base:], right_sub_rev[base:]
             for k in range(min(ndisp, j - dmin + 1)):
                 sums[k] = sums[k] + psi(lv, r[k]) - psi(lv_sub, r_sub[k])
@@ -119,6 +130,7 @@ def _make(cost, acc, csw, right_map, extras):
         width = disp_row.shape[0]
         ndisp = col_sums.shape[1]
         w, dmin, tau, rule, uniqueness, slack = sc[0], sc[1], sc[3], sc[4], sc[5], sc[6]
+        shift = -dmin if negative else 0  # the right-pixel arrays' extra front entries
         if csw:
             claims_rev[:] = -1
         if right_map:
@@ -138,7 +150,9 @@ def _make(cost, acc, csw, right_map, extras):
         evaluated = 0
         for x in range(width):
             n = max(min(ndisp, x - dmin + 1), 0)  # candidates d = dmin + k <= x
-            base = width - 1 - x + dmin  # claims[k] and the right pixel x - dmin - k, reversed
+            # ... and, for a negative range, x - d <= width - 1: k >= lo.
+            lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
+            base = width - 1 - x + dmin + shift  # claims[k]: right pixel x - d, reversed
             add = col_sums[x + w - 1]  # the column entering the window
             sub = col_sums[max(x - 1, 0)]  # the column leaving it (see above for x = 0)
             # Slide the first n sums and take their minimum in the same pass (blocked
@@ -148,14 +162,16 @@ def _make(cost, acc, csw, right_map, extras):
             taken = 0
             first = np.int16(n)  # narrow lanes for the index min, like the sums' (D <= 2**15)
             none = np.int16(n)
+            for k in range(lo):  # right pixels beyond the image: slid, not candidates
+                row_sums[k] = row_sums[k] + add[k] - sub[k]
             if csw:
                 claims = claims_rev[base:]
-                for k in range(n):
+                for k in range(lo, n):
                     row_sums[k] = row_sums[k] + add[k] - sub[k]
                     skip = blocked(claims[k], x, slack)
                     taken += skip
                     best = min(best, never if skip else row_sums[k])
-                for k in range(n):
+                for k in range(lo, n):
                     hit = row_sums[k] == best and not blocked(claims[k], x, slack)
                     first = min(first, np.int16(k) if hit else none)
                 if right_map:
@@ -163,7 +179,7 @@ def _make(cost, acc, csw, right_map, extras):
                     # right pixel x - d, a strict < over ascending x keeps the smallest d.
                     best_r = right_best_rev[base:]
                     d_r = right_rev_d[base:]
-                    for k in range(n):
+                    for k in range(lo, n):
                         c = never if blocked(claims[k], x, slack) else row_sums[k]
                         better = c < best_r[k]
                         best_r[k] = min(c, best_r[k])
@@ -174,17 +190,17 @@ def _make(cost, acc, csw, right_map, extras):
                     # smallest k.  Faster than two passes for short ranges (fewer loops
                     # per pixel), slower for long ones (32-bit lanes); 16-bit sums only.
                     key = np.uint32(0xFFFFFFFF)
-                    for k in range(n):
+                    for k in range(lo, n):
                         row_sums[k] = row_sums[k] + add[k] - sub[k]
                         key = min(key, (np.uint32(row_sums[k]) << np.uint32(16)) |
                                   np.uint32(k))
                     best = acc(key >> np.uint32(16))
-                    first = np.int16(key & np.uint32(0xFFFF)) if n > 0 else none
+                    first = np.int16(key & np.uint32(0xFFFF)) if n > lo else none
                 else:
-                    for k in range(n):
+                    for k in range(lo, n):
                         row_sums[k] = row_sums[k] + add[k] - sub[k]
                         best = min(best, row_sums[k])
-                    for k in range(n):
+                    for k in range(lo, n):
                         first = min(first, np.int16(k) if row_sums[k] == best else none)
                 if right_map:
                     # The right image's best match per right pixel, from the same costs:
@@ -194,15 +210,15 @@ def _make(cost, acc, csw, right_map, extras):
                     # vectorised it.
                     best_r = right_best_rev[base:]
                     d_r = right_rev_d[base:]
-                    for k in range(n):
+                    for k in range(lo, n):
                         v = row_sums[k]
                         d_r[k] = np.int16(k) if v < best_r[k] else d_r[k]
                         best_r[k] = min(v, best_r[k])
             for k in range(n, ndisp):  # not candidates yet (d > x), needed further right
                 row_sums[k] = row_sums[k] + add[k] - sub[k]
-            evaluated += n - taken
-            if taken == n:  # no candidate (x < dmin), or every one blocked
-                disp_row[x] = INVALID
+            evaluated += n - lo - taken
+            if taken == n - lo:  # no candidate (x < dmin), or every one blocked
+                disp_row[x] = invalid
                 cost_row[x] = -1
                 if extras:
                     second_row[x] = -1
@@ -217,27 +233,27 @@ def _make(cost, acc, csw, right_map, extras):
                 # candidates, the three next to the best masked out, vectorises better
                 # than two passes around them.
                 claims = claims_rev[base:]
-                for k in range(n):
+                for k in range(lo, n):
                     skip = blocked(claims[k], x, slack) or abs(k - first) <= 1
                     second = min(second, never if skip else row_sums[k])
             elif extras:
                 # Without CSW nothing is blocked: one plain minimum over all candidates,
                 # with the best's three set aside for it (and put back: later pixels
                 # slide them).
-                lo, hi = max(int(first) - 1, 0), min(int(first) + 2, n)
-                mid = min(lo + 1, hi - 1)
-                kept0, kept1, kept2 = row_sums[lo], row_sums[mid], row_sums[hi - 1]
-                for k in range(lo, hi):
+                a0, hi = max(int(first) - 1, lo), min(int(first) + 2, n)
+                mid = min(a0 + 1, hi - 1)
+                kept0, kept1, kept2 = row_sums[a0], row_sums[mid], row_sums[hi - 1]
+                for k in range(a0, hi):
                     row_sums[k] = never
-                for k in range(n):
+                for k in range(lo, n):
                     second = min(second, row_sums[k])
                 row_sums[hi - 1] = kept2  # in reverse: where indices coincide, values agree
                 row_sums[mid] = kept1
-                row_sums[lo] = kept0
+                row_sums[a0] = kept0
             if extras:
                 claims = claims_rev[base:]
                 second_row[x] = -1 if second == never else np.int64(second)
-                prev_row[x] = -1 if first == 0 or (csw and blocked(claims[first - 1], x,
+                prev_row[x] = -1 if first == lo or (csw and blocked(claims[first - 1], x,
                                                                    slack)) \
                     else np.int64(row_sums[first - 1])
                 next_row[x] = -1 if first + 1 >= n or (csw and blocked(claims[first + 1], x,
@@ -251,8 +267,8 @@ def _make(cost, acc, csw, right_map, extras):
             claims_rev[base + first] = x
         if right_map:
             for xr in range(width):
-                k = right_rev_d[width - 1 - xr]
-                right_row[xr] = INVALID if k < 0 else dmin + k
+                k = right_rev_d[width - 1 - xr + shift]
+                right_row[xr] = invalid if k < 0 else dmin + k
         return evaluated
 
     @njit(**SERIAL)

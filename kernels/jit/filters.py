@@ -20,8 +20,8 @@ def spec(kind):
     from ..native import Spec
 
     return {
-        # disp, right_disp (H, W) int32; valid (H, W) uint8 out; sc: y0, y1, limit
-        "lr": Spec(lr_consistent, ((I32, 2), (I32, 2), (U8, 2)), 3),
+        # disp, right_disp (H, W) int32; valid (H, W) uint8 out; sc: y0, y1, limit, invalid
+        "lr": Spec(lr_consistent, ((I32, 2), (I32, 2), (U8, 2)), 4),
         # disp (H, W); small (H, W) uint8 out; parent, size (H*W,) int32, above, here
         # (W,) int32 scratch; max_diff (1,) float64; sc: max_size
         "speckle": Spec(speckle_mask, ((F32, 2), (U8, 2), (I32, 1), (I32, 1), (I32, 1),
@@ -35,18 +35,18 @@ def spec(kind):
 
 @njit(**SERIAL)
 def lr_consistent(disp, right_disp, valid, sc):
-    """valid[y, x] = 1 where d = disp[y, x] is valid (>= 0) and its right pixel's own match,
-    right_disp[y, x - d] (-1: none), differs from it by at most sc[2]; for the rows of
-    the stripe."""
+    """valid[y, x] = 1 where d = disp[y, x] is valid (not sc[3], the maps' invalid value)
+    and its right pixel's own match, right_disp[y, x - d] (sc[3]: none), differs from it
+    by at most sc[2]; for the rows of the stripe."""
     width = disp.shape[1]
-    limit = sc[2]
+    limit, invalid = sc[2], sc[3]
     for y in range(sc[0], sc[1]):
         for x in range(width):
             d = disp[y, x]
             ok = False
-            if d >= 0:
+            if d != invalid:
                 back = right_disp[y, x - d]
-                ok = back >= 0 and abs(d - back) <= limit
+                ok = back != invalid and abs(d - back) <= limit
             valid[y, x] = ok
     return 0
 

@@ -10,14 +10,14 @@ import numpy as np
 from numba import njit
 
 from ..config import SERIAL
-from ..contract import INVALID, RULE_UNIQUE
+from ..contract import INVALID, NEG_INVALID, RULE_UNIQUE
 from .common import blocked, ctpop, dtype_of, is_distinct, stop_requested
 
 # The scalars every stripe takes, in order.
 SCALARS = ("window", "dmin", "dmax", "tau", "rule", "uniqueness", "slack", "i0", "i1")
 
 
-def spec(cost, pixels, csw, right_map, extras):
+def spec(cost, pixels, csw, right_map, extras, negative=False):
     """The stripe worker of a variant.  cost: "sad", "ssd" or "shd"; pixels: the padded
     images' type name ("u16" for 8- and 16-bit images, the codes' type for census)."""
     from ..native import Spec
@@ -29,11 +29,14 @@ def spec(cost, pixels, csw, right_map, extras):
               (i32, 2), (i64, 2),  # disp, min_cost (n, W)
               (i64, 2), (i64, 2), (i64, 2), (i32, 2),  # second, prev, next, right_disp
               (i64, 1), (np.dtype(np.uint8), 1))  # evaluated (n,), stop (1,)
-    return Spec(_make(cost, bool(csw), bool(right_map), bool(extras)), arrays, len(SCALARS))
+    return Spec(_make(cost, bool(csw), bool(right_map), bool(extras), bool(negative)),
+                arrays, len(SCALARS))
 
 
-def _make(cost, csw, right_map, extras):
-    """The workers of one variant, with its cost and flags as compile-time constants."""
+def _make(cost, csw, right_map, extras, negative):
+    """The workers of one variant, with its cost and flags as compile-time constants.
+    negative: dmin < 0, so that invalid pixels are NEG_INVALID (-1 is a disparity)."""
+    invalid = NEG_INVALID if negative else INVALID
 
     @njit(**SERIAL)
     def window_cost(left_p, right_p, top, xl, xr, w):
@@ -76,13 +79,14 @@ def _make(cost, csw, right_map, extras):
             claims[:] = -1
         if right_map:
             right_best[:] = np.iinfo(np.int64).max
-            right_row[:] = INVALID
+            right_row[:] = invalid
         evaluated = 0
         for x in range(width):
-            best_d = INVALID
+            best_d = invalid
             best = np.int64(-1)
             top = min(dmax, x)
-            for d in range(dmin, top + 1):
+            bottom = max(dmin, x - width + 1)  # the right pixel x - d lies in the image
+            for d in range(bottom, top + 1):
                 if csw and blocked(claims[x - d], x, slack):
                     costs[d - dmin] = -1
                     continue
@@ -90,7 +94,7 @@ def _make(cost, csw, right_map, extras):
                 costs[d - dmin] = c
                 evaluated += 1
                 # Strict < over ascending d: the smallest d wins ties.
-                if best_d == INVALID or c < best:
+                if best_d == invalid or c < best:
                     best = c
                     best_d = d
                 if right_map and c < right_best[x - d]:
@@ -100,18 +104,19 @@ def _make(cost, csw, right_map, extras):
             disp_row[x] = best_d
             cost_row[x] = best
             second = np.int64(-1)
-            if best_d != INVALID and (extras or (csw and rule == RULE_UNIQUE and
+            if best_d != invalid and (extras or (csw and rule == RULE_UNIQUE and
                                                  best <= tau)):
                 # The least evaluated cost at least 2 away from best_d.
-                for d in range(dmin, top + 1):
+                for d in range(bottom, top + 1):
                     c = costs[d - dmin]
                     if c >= 0 and abs(d - best_d) >= 2 and (second < 0 or c < second):
                         second = c
             if extras:
                 second_row[x] = second
-                prev_row[x] = costs[best_d - 1 - dmin] if best_d > dmin else -1
-                next_row[x] = costs[best_d + 1 - dmin] if 0 <= best_d < top else -1
-            if not csw or best_d == INVALID or best > tau:
+                found = best_d != invalid
+                prev_row[x] = costs[best_d - 1 - dmin] if found and best_d > bottom else -1
+                next_row[x] = costs[best_d + 1 - dmin] if found and best_d < top else -1
+            if not csw or best_d == invalid or best > tau:
                 continue
             if rule == RULE_UNIQUE and not is_distinct(best, second, uniqueness):
                 continue

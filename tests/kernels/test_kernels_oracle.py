@@ -75,8 +75,9 @@ def test_matches_oracle_hypothesis(engine, seed, height, width, window, cost, si
     window = min(window, height if height % 2 else height - 1, width if width % 2 else width - 1)
     if window < 1:
         window = 1
-    dmax = data.draw(st.integers(0, width - 1))
-    dmin = data.draw(st.integers(0, dmax))
+    # Ranges reaching below 0 too: a candidate's right pixel must then lie in the image.
+    dmax = data.draw(st.integers(-(width - 1), width - 1))
+    dmin = data.draw(st.integers(-(width - 1), dmax))
     rng = np.random.default_rng(seed)
     dtype = np.uint16 if sixteen else np.uint8
     # Few grey levels make ties frequent, which exercises the smallest-d rule.

@@ -109,7 +109,7 @@ def test_result_does_not_depend_on_thread_count(engine, rule, scene):
     (dict(window=0), "odd"),
     (dict(window=99), "larger than the image"),
     (dict(dmin=5, dmax=2), "must not exceed"),
-    (dict(dmin=-1), ">= 0"),
+    (dict(dmin=-40), "minus the image width"),
     (dict(dmax=40), "less than the image width"),
     (dict(cost="ncc"), "cost must be one of"),
     (dict(threads=0), "threads"),

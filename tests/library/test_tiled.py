@@ -30,6 +30,7 @@ CASES = {
                         subpixel="parabola", median=3, fill="background"),
     "window engine, SSD, subpixel": dict(preset="raw", engine="window", cost="ssd",
                                          subpixel="linear", lr_check=1),
+    "accurate, a range from -6": dict(dmin=-6),
 }
 
 
