@@ -22,6 +22,7 @@ import importlib
 
 # Public name -> (module, attribute in it).
 _PUBLIC = {
+    "Calibration": ("calib", "Calibration"),
     "DataError": ("data.datasets", "DataError"),
     "ImageError": ("io.images", "ImageError"),
     "Job": ("batch", "Job"),
@@ -32,6 +33,7 @@ _PUBLIC = {
     "bench_rows": ("eval.bench", "bench_rows"),
     "compile_kernels": ("prepare", "compile_kernels"),
     "dataset_names": ("data.datasets", "names"),
+    "depth": ("geometry", "depth"),
     "jobs_from_folders": ("batch", "jobs_from_folders"),
     "jobs_from_manifest": ("batch", "jobs_from_manifest"),
     "load_dataset": ("data.datasets", "load"),
@@ -39,6 +41,8 @@ _PUBLIC = {
     "match_files": ("files", "match_files"),
     "match_many": ("batch", "match_many"),
     "match_tiled": ("tiled.run", "match_tiled"),
+    "point_cloud": ("geometry", "point_cloud"),
+    "read_calibration": ("calib", "read_calibration"),
     "read_disparity": ("io.formats", "read_disparity"),
     "read_image": ("io.images", "read_image"),
     "run_bench": ("eval.bench", "run_bench"),
@@ -48,9 +52,12 @@ _PUBLIC = {
     "synthetic_pair": ("data.synth", "render"),
     "total_rows": ("eval.bench", "total_rows"),
     "write_disparity": ("io.formats", "write_disparity"),
+    "write_ply": ("geometry", "write_ply"),
 }
-_SUBMODULES = {"batch", "data", "distributed", "eval", "executor", "files", "io", "kernels",
-               "paper", "params", "pipeline", "prepare", "tau", "tiled", "whole"}
+_SUBMODULES = {"autorange", "batch", "calib", "data", "distributed", "eval", "executor",
+               "geometry",
+               "files", "io", "kernels", "paper", "params", "pipeline", "prepare", "tau",
+               "tiled", "whole"}
 
 
 def __getattr__(name):

@@ -9,10 +9,13 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from . import calib as calib_module
 from .executor import progress_bar, run_tasks
-from .io.atomic import atomic_write, remove_temporaries
-from .io.formats import check_range, suffixes, write_disparity
-from .io.images import ImageError, read_image
+from .geometry import CLOUD_SUFFIXES, DEPTH_SUFFIXES
+from .geometry import writers as three_d_writers
+from .io.atomic import atomic_write, atomic_write_all, remove_temporaries
+from .io.formats import check_range, disparity_writer, suffixes
+from .io.images import ImageError, read_colour, read_image
 from .params import OptionError, resolve
 from .whole import match
 
@@ -155,29 +158,55 @@ def check_outputs(jobs, outputs, out_dir, summary):
                                      f"{owner.where or owner.left}")
 
 
-def run_job(task, **match_options):
-    """Match one pair, a (Job, output path) task, and write its map; returns a summary
-    entry (never raises for a bad pair: the error is in the entry)."""
-    job, output = task
+def run_job(task, calib=None, three_d=None, **match_options):
+    """Match one pair, a (Job, outputs) task (outputs: role -> path, "map" first), and
+    write its map and the 3-D outputs asked for, all or none; returns a summary entry
+    (never raises for a bad pair: the error is in the entry).  calib: the batch's
+    Calibration, else the pair's calib.txt (beside its left image) is used; its ndisp
+    sets the range when the options give no dmax.  three_d: max_depth and units."""
+    job, outputs = task
     entry = {"name": job.name, "left": str(job.left),
-             "right": str(job.right) if job.right else None, "output": str(output)}
+             "right": str(job.right) if job.right else None,
+             "output": str(outputs["map"])}
     start = time.perf_counter()
     try:
         if job.problem:
             raise ValueError(job.problem)
         left, right = read_image(job.left), read_image(job.right)
+        calibration = calib_module.resolve(calib, job.left)
+        range_source = "given" if "dmax" in match_options else "default"
+        if "dmax" not in match_options and calibration is not None and calibration.ndisp:
+            match_options = dict(match_options,
+                                 dmax=min(calibration.ndisp - 1, left.shape[1] - 1))
+            range_source = f"ndisp of {calibration.source}"
+        wanted = [role for role in ("depth", "cloud", "depth_preview") if role in outputs]
+        if wanted and calibration is None:
+            raise ValueError(f"no calibration for the {wanted[0].replace('_', ' ')}: give "
+                             f"one, or put a calib.txt beside {job.left}")
         result = match(left, right, **match_options)
-        write_disparity(output, result.disparity)
+        items = [(outputs["map"], disparity_writer(outputs["map"], result.disparity))]
+        if wanted:
+            colours = read_colour(job.left) if "cloud" in wanted else None
+            items += three_d_writers(result.disparity, calibration, outputs.get("depth"),
+                                     outputs.get("cloud"), outputs.get("depth_preview"),
+                                     colours, **(three_d or {}))
+        atomic_write_all(items)
     except (ImageError, ValueError, OSError) as exc:
         message = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         return dict(entry, status="failed", error=message)
+    s = result.settings
     return dict(entry, status="ok", seconds=time.perf_counter() - start,
                 match_seconds=result.seconds, invalid=100.0 * result.invalid_share,
-                work_saved=100.0 * result.work_saved)
+                work_saved=100.0 * result.work_saved, range=[s["dmin"], s["dmax"]],
+                range_source=s["range_source"] if s["range_source"] == "auto"
+                else range_source,
+                calibration=calibration.as_dict() if calibration else None,
+                **{role: str(path) for role, path in outputs.items() if role != "map"})
 
 
 def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
-               summary=None, client=None, **match_options):
+               summary=None, client=None, calib=None, depth=None, cloud=None,
+               depth_preview=None, max_depth=None, units=None, **match_options):
     """Match every job into ``out_dir/<name><suffix>``.
 
     Parameters
@@ -199,6 +228,15 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         Run each pair as a task on this cluster: the workers read the images and write
         the maps; a worker that dies has its tasks rerun elsewhere (writes are atomic, so
         a rerun never leaves a partial map).  See :func:`csw.distributed.local_client`.
+    calib : path or csw.Calibration, optional
+        One calibration for every pair; default: each pair's calib.txt beside its left
+        image (Middlebury 2014's layout), whose ndisp also sets its range when the
+        options give no dmax.
+    depth, cloud, depth_preview : str, optional
+        Also write each pair's depth map (the format, e.g. ".pfm": NAME.depth.pfm), point
+        cloud (".ply": NAME.ply) and depth picture (".png": NAME.depth.png).
+    max_depth, units : optional
+        As for :func:`csw.match_files`.
     **match_options
         As for :func:`csw.match`.
 
@@ -221,7 +259,22 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         raise OptionError("dmax", str(exc)) from None
     check_names(jobs)
     summary = Path(summary) if summary else out_dir / "summary.json"
-    outputs = [{"map": out_dir / f"{job.name}{suffix}"} for job in jobs]
+    extras = {}
+    for role, value, name in (("depth", depth, "{}.depth{}"), ("cloud", cloud, "{}{}"),
+                              ("depth_preview", depth_preview, "{}.depth{}")):
+        if value is not None:
+            extra = str(value) if str(value).startswith(".") else Path(value).suffix
+            allowed = {"depth": DEPTH_SUFFIXES, "cloud": CLOUD_SUFFIXES,
+                       "depth_preview": (".png",)}[role]
+            if extra.lower() not in allowed:
+                raise OptionError(role, f"many pairs take the {role.replace('_', ' ')}'s "
+                                        f"format, one of {', '.join(allowed)}; got {value!r}")
+            extras[role] = name.replace("{}", "{name}", 1).replace("{}", extra)
+    if isinstance(calib, (str, Path)):
+        calib = calib_module.read_calibration(calib)  # once, and a bad one fails first
+    outputs = [{"map": out_dir / f"{job.name}{suffix}",
+                **{role: out_dir / pattern.format(name=job.name)
+                   for role, pattern in extras.items()}} for job in jobs]
     check_outputs(jobs, outputs, out_dir, summary)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -231,16 +284,17 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     entries = {}
     todo = []
     for i, (job, paths) in enumerate(zip(jobs, outputs, strict=True)):
-        output = paths["map"]
-        if output.exists() and not overwrite:
+        if paths["map"].exists() and not overwrite:
             entries[i] = {"name": job.name, "left": str(job.left), "right": str(job.right),
-                          "output": str(output), "status": "skipped"}
+                          "output": str(paths["map"]), "status": "skipped"}
         else:
-            todo.append((i, job, output))
+            todo.append((i, job, paths))
     bar = progress_bar(len(jobs), "csw match", "pair", progress, initial=len(entries))
     try:
-        tasks = [(job, output) for _, job, output in todo]
-        for k, entry in run_tasks(run_job, tasks, client, **match_options):
+        tasks = [(job, paths) for _, job, paths in todo]
+        three_d = dict(max_depth=max_depth, units=units)
+        for k, entry in run_tasks(run_job, tasks, client, calib=calib, three_d=three_d,
+                                  **match_options):
             entries[todo[k][0]] = entry
             bar.update()
     except KeyboardInterrupt:
@@ -252,8 +306,9 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         bar.close()
     # Every task has finished: a temporary file still beside an output was left by a
     # worker killed mid-write (its task was rerun elsewhere), so it can go.
-    for _, _, output in todo:
-        remove_temporaries(output)
+    for _, _, paths in todo:
+        for path in paths.values():
+            remove_temporaries(path)
     return write_summary(summary, [entries[i] for i in sorted(entries)], resolved)
 
 

@@ -9,6 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
+from . import calib as calib_module
+from .geometry import CLOUD_SUFFIXES, DEPTH_SUFFIXES
+from .geometry import writers as three_d_writers
 from .io.atomic import atomic_write_all
 from .io.formats import (
     check_range,
@@ -18,17 +21,20 @@ from .io.formats import (
     png_writer,
     suffixes,
 )
-from .io.images import ImageError, read_image
+from .io.images import ImageError, read_colour, read_image
+from .io.sources import open_source
 from .params import OptionError, resolve
 from .tiled import match_tiled, too_big_for_whole
 from .whole import match
 
 # What each companion output may be, by role (csw.io.formats.suffixes).
-COMPANIONS = {"preview": (".png",), "cost_map": (".pfm",), "plot": (".png",)}
+COMPANIONS = {"preview": (".png",), "cost_map": (".pfm",), "plot": (".png",),
+              "depth": DEPTH_SUFFIXES, "cloud": CLOUD_SUFFIXES, "depth_preview": (".png",)}
 
 
 def match_files(left, right, output, *, confidence=None, preview=None, cost_map=None,
-                memory_limit=None, client=None, progress=False, **options):
+                calib=None, depth=None, cloud=None, depth_preview=None, max_depth=None,
+                units=None, memory_limit=None, client=None, progress=False, **options):
     """Match the pair in files ``left`` and ``right`` and write the map to ``output``.
 
     Parameters
@@ -40,6 +46,17 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     confidence, preview, cost_map : path, optional
         Also write the confidence map (a float format), an 8-bit colour PNG of the map,
         and the minimum-cost map (PFM; whole-image matches only).
+    calib : path or csw.Calibration, optional
+        The pair's calibration (csw.read_calibration); default: the calib.txt beside the
+        left image, if any (Middlebury 2014's layout).  Its ``ndisp`` sets the range when
+        the options give no dmax.
+    depth, cloud, depth_preview : path, optional
+        Also write the depth map (.pfm, .npy, .tif), the point cloud (binary PLY,
+        coloured from the left image) and a colour picture of the depth (PNG), from the
+        calibration (whole-image matches only).
+    max_depth, units : optional
+        Leave points farther than max_depth out of the cloud; give depth and points in
+        these units ("m", "mm" ...) rather than the calibration's.
     memory_limit : int or str, optional
         Match in row stripes that fit this much working memory (see csw.match_tiled).
     client : dask.distributed.Client, optional
@@ -61,34 +78,64 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     csw.ImageError
         An input that can't be read (its ``option`` names it: "left" or "right").
     """
+    calibration = calib_module.resolve(calib, left)
+    if calibration is not None:
+        calibration.check_size(open_source(left, "left", probe=False).shape)
+    range_note = ("given" if "dmax" in options else "default") \
+        if options.get("dmax") != "auto" else "auto"
+    if "dmax" not in options and calibration is not None and calibration.ndisp:
+        width = open_source(left, "left", probe=False).shape[1]
+        options = dict(options, dmax=min(calibration.ndisp - 1, width - 1))
+        range_note = f"ndisp of {calibration.source}"
     opts = resolve(**options)
     outputs = {"output": output, "confidence": confidence, "preview": preview,
-               "cost_map": cost_map}
+               "cost_map": cost_map, "depth": depth, "cloud": cloud,
+               "depth_preview": depth_preview}
     check_outputs({"left": left, "right": right}, outputs)
+    three_d = [name for name in ("depth", "cloud", "depth_preview") if outputs[name]]
+    if three_d and calibration is None:
+        raise OptionError("calib", f"the {three_d[0].replace('_', ' ')} needs the pair's "
+                                   "calibration: give one (a calib.txt, KITTI calib, "
+                                   "OpenCV Q, or the focal length and baseline)")
     try:
         check_range(output, opts["dmax"], opts["dmin"])
     except ValueError as exc:
         raise OptionError("dmax", str(exc)) from None
     if _use_stripes(left, right, output, confidence, memory_limit, client, opts):
-        if cost_map is not None:
-            raise OptionError("cost_map", "the cost map is not written for pairs matched in "
-                                          "stripes (a large pair, a memory limit, a "
-                                          "cluster, .tif/.zarr)")
-        return match_tiled(left, right, output, confidence=confidence, preview=preview,
-                           memory_limit=memory_limit, client=client, progress=progress,
-                           **options)
+        for name in ("cost_map", *three_d):
+            if outputs[name] is not None:
+                raise OptionError(name, f"the {name.replace('_', ' ')} is not written for "
+                                        "pairs matched in stripes (a large pair, a memory "
+                                        "limit, a cluster, .tif/.zarr)")
+        result = match_tiled(left, right, output, confidence=confidence, preview=preview,
+                             memory_limit=memory_limit, client=client, progress=progress,
+                             **options)
+        return _noted(result, range_note, calibration)
     images = [_read(path, name) for name, path in (("left", left), ("right", right))]
     result = match(*images, want_confidence=confidence is not None, **options)
     disp = result.disparity
     writers = [(output, disparity_writer(output, disp))]
     if preview is not None:
-        writers.append((preview, png_writer(colorize(disp, opts["dmax"], opts["dmin"]))))
+        used = result.settings
+        writers.append((preview, png_writer(colorize(disp, used["dmax"], used["dmin"]))))
     if cost_map is not None:
         m = np.where(result.min_cost >= 0, result.min_cost, np.inf).astype(np.float32)
         writers.append((cost_map, pfm_writer(m)))
     if confidence is not None:
         writers.append((confidence, pfm_writer(result.confidence)))
+    if three_d:
+        colours = read_colour(left) if cloud is not None else None
+        writers += three_d_writers(disp, calibration, depth, cloud, depth_preview, colours,
+                                   max_depth, units)
     atomic_write_all(writers)
+    return _noted(result, range_note, calibration)
+
+
+def _noted(result, range_note, calibration):
+    """The result, its settings saying where the range and the calibration came from."""
+    if result.settings.get("range_source") != "auto":
+        result.settings["range_source"] = range_note
+    result.settings["calibration"] = calibration.describe() if calibration else None
     return result
 
 
@@ -122,7 +169,8 @@ def check_outputs(inputs, outputs):
     """Before any work: every output (name -> path or None) has a suffix its role allows,
     lies in a folder that exists and can be written, is not a folder (save a zarr store),
     and overwrites neither an input nor another output.  OptionError naming the output."""
-    seen = {os.path.realpath(path): name for name, path in inputs.items()}
+    seen = {os.path.realpath(path): name for name, path in inputs.items()
+            if path is not None}
     for name, path in outputs.items():
         if path is None:
             continue

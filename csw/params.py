@@ -42,6 +42,7 @@ class Option:
       bool     True or False
       off_int  None ("off") or a whole number in [low, high]
       auto_int None (the derived default ``default_text`` names) or a whole number
+      int_auto a whole number, or "auto" (found from the pair)
       tau      a tau as csw.tau reads it (a number >= 0, "auto", "none"), or None
     stage: a pipeline stage around the kernels (csw.pipeline), off in the paper's contract.
     flag: the command-line flag, where it differs from --name-with-dashes.
@@ -80,6 +81,9 @@ class Option:
             from .tau import parse_tau
 
             return parse_tau(value, ("auto", "none"))
+        if self.kind == "int_auto" and isinstance(value, str) and \
+                value.strip().lower() == "auto":
+            return "auto"
         if value is None and self.kind in ("off_int", "auto_int"):
             return None
         if self.kind == "off_int" and isinstance(value, str) and value.strip().lower() == "off":
@@ -158,9 +162,12 @@ OPTIONS = {o.name: o for o in [
                 "distance)."),
     Option("window", "int", 9, low=1, odd=True,
            help="Odd window side (9 = the paper's 9x9)."),
-    Option("dmin", "int", 0, help="Smallest disparity searched; below 0 for convergent "
-                                  "rigs and satellite pairs."),
-    Option("dmax", "int", 64, low=0, help="Largest disparity searched (less than the width)."),
+    Option("dmin", "int_auto", 0,
+           help="Smallest disparity searched; below 0 for convergent rigs and satellite "
+                "pairs; 'auto' finds it from the pair."),
+    Option("dmax", "int_auto", 64,
+           help="Largest disparity searched (less than the width); 'auto' finds it from "
+                "the pair (a coarse match of the shrunk pair)."),
     Option("csw", "bool", False,
            help="Skip right pixels already claimed by a confident match."),
     Option("csw_rule", "choice", "literal", choices=tuple(RULES), help=RULE_HELP),

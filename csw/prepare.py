@@ -32,7 +32,7 @@ class Prepared:
 
 
 def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None,
-            confidence=False):
+            confidence=False, shrunk=None):
     """Prepare a match of a pair of ``shape`` (H, W) and ``dtype``.
 
     opts: the resolved options (csw.params.resolve: the callers resolve them before
@@ -40,14 +40,27 @@ def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None
     of the right image, checked against the left's.  sample_min_cost(args, stages, rows):
     plain matching's min-cost rows (int64 (n, W)) for the rows tau auto samples
     (csw.tau.sample_rows), matched with ``stages``; called only when tau resolves to auto.
-    make_plan(): how the match will run (csw.tiled's stripes), made once the pair is
-    checked and before anything compiles; its result is ``Prepared.plan``.  confidence:
+    make_plan(opts): how the match will run (csw.tiled's stripes), made once the pair is
+    checked and its range known, before anything compiles; its result is
+    ``Prepared.plan``.  confidence:
     the run computes the confidence map (its kernels make the second-best costs).
+    shrunk(f): the pair shrunk f times (csw.autorange.shrink), for a range "auto".
     Raises ValueError, saying how to fix it, on any bad option or pair.
     """
     if right is not None:
         kernels.contract.check_pair(shape, dtype, *right)
     height, width = shape
+    range_source = opts.get("range_source", "given")
+    if "auto" in (opts["dmin"], opts["dmax"]):
+        from .autorange import estimate, factor
+
+        f = factor(width)
+        low, high = estimate(*shrunk(f), f, width,
+                             None if opts["dmin"] == "auto" else opts["dmin"],
+                             None if opts["dmax"] == "auto" else opts["dmax"],
+                             opts["threads"])
+        opts = dict(opts, dmin=low, dmax=high)
+        range_source = "auto"
     # The kernels' own checks, once, on a stand-in as wide as the pair and one window
     # tall (their rules on the window, range and cost don't depend on the pixels).
     stand_in = np.zeros((min(height, opts["window"]), width), dtype)
@@ -56,7 +69,7 @@ def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None
         cost=opts["cost"], csw=False, tau=-1, rule=opts["csw_rule"],
         uniqueness=opts["uniqueness"], census_window=opts["census_window"])
     stages = params.stages(opts)
-    layout = make_plan() if make_plan is not None else None
+    layout = make_plan(opts) if make_plan is not None else None
     compile_s = load_kernels(opts, stages, dtype, confidence)
     args = params.kernel_args(opts)
     tau, source = -1.0, "off"
@@ -67,7 +80,7 @@ def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None
         tau, source = resolve_tau(
             opts["tau"], opts["csw_rule"],
             plain_min_cost=lambda: sample_min_cost(args, shaping, sample_rows(height)))
-    settings = dict(opts, tau=tau, tau_source=source,
+    settings = dict(opts, tau=tau, tau_source=source, range_source=range_source,
                     uniqueness=kernels.contract.resolve_uniqueness(opts["cost"],
                                                                    opts["uniqueness"]))
     return Prepared(opts, stages, dict(args, csw=opts["csw"], tau=tau), settings, compile_s,

@@ -129,8 +129,14 @@ def match(left, right, want_confidence=False, **options):
     def sample_min_cost(args, stages, rows):
         return match_rows(left, right, dict(args, rows=rows), stages)[2].min_cost
 
+    def shrunk(f):
+        from .autorange import shrink
+
+        return shrink(left, f), shrink(right, f)
+
     ready = prepare(opts, left.shape, left.dtype, right=(right.shape, right.dtype),
-                    sample_min_cost=sample_min_cost, confidence=want_confidence)
+                    sample_min_cost=sample_min_cost, confidence=want_confidence,
+                    shrunk=shrunk)
     start = time.perf_counter()
     disparity, confidence, raw = run_pipeline(left, right, ready.args, ready.stages,
                                               confidence=want_confidence)

@@ -10,8 +10,10 @@ import click
 # lists them without importing any.
 COMMANDS = {
     "bench": ("bench", "bench", "Score and time plain vs CSW matching (the paper's TABLE II)."),
+    "cloud": ("depth", "cloud", "Turn a disparity map into a point cloud (PLY)."),
     "compile": ("compile", "compile_", "Compile the presets' kernels ahead (CI, Docker)."),
     "datasets": ("datasets", "datasets", "List the registered datasets."),
+    "depth": ("depth", "depth", "Turn a disparity map into depth, with a calibration."),
     "hist": ("hist", "hist", "Histogram of the minimum-cost map m (the paper's Fig. 9)."),
     "match": ("match", "match", "Compute disparity maps for rectified pairs."),
     "score": ("score", "score", "Score a disparity map against ground truth."),

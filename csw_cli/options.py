@@ -206,3 +206,41 @@ def pairs(datasets, dataset_dirs, data_dir, download, verify=True):
             with library_errors():
                 pair = scene.load()
             yield pair
+
+
+def calibration_options(command):
+    """--calib FILE, or --focal/--baseline/--cx/--cy/--doffs, and --units: the pair's
+    calibration (csw.calib.from_options turns them into one)."""
+    from csw.calib import UNITS
+
+    decorators = [
+        click.option("--calib", type=click.Path(dir_okay=False),
+                     help="The pair's calibration: a Middlebury calib.txt, a KITTI calib "
+                          "(P2/P3 or P_rect_02/03), an OpenCV YAML/XML with Q, or a 4x4 "
+                          "Q in .npy [default: the calib.txt beside LEFT, if any]."),
+        click.option("--focal", type=float, help="Or by hand: the focal length (pixels)."),
+        click.option("--baseline", type=float,
+                     help="By hand: the baseline (depth comes out in its units)."),
+        click.option("--cx", type=float,
+                     help="By hand: the principal point's x [default: the centre]."),
+        click.option("--cy", type=float,
+                     help="By hand: the principal point's y [default: the centre]."),
+        click.option("--doffs", type=float,
+                     help="By hand: the right principal point's x less the left's "
+                          "[default: 0]."),
+        click.option("--units", type=click.Choice(list(UNITS)),
+                     help="Depth and points in these units [default: the calibration's: "
+                          "mm for Middlebury, m for KITTI]."),
+    ]
+    for decorate in reversed(decorators):
+        command = decorate(command)
+    return command
+
+
+def calibration(ctx_params):
+    """The Calibration (or None) the calibration options name; Click errors for bad ones."""
+    from csw.calib import from_options
+
+    with library_errors():
+        return from_options(*(ctx_params[k] for k in ("calib", "focal", "baseline", "cx",
+                                                       "cy", "doffs")))

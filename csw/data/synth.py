@@ -138,9 +138,22 @@ def render(width=450, height=375, dmax=64, seed=0, rows=None):
     return to8(left), to8(right), gt.astype(np.float32), nonocc
 
 
+# The synthetic rig: a focal length of one image width, 100 mm between the cameras.
+BASELINE_MM = 100.0
+
+
+def calib_text(width, height, dmax):
+    """The scene's calibration as a Middlebury 2014 calib.txt: focal length = width
+    pixels, the principal point at the centre, the baseline BASELINE_MM, ndisp dmax + 1."""
+    cam = f"[{width} 0 {(width - 1) / 2:g}; 0 {width} {(height - 1) / 2:g}; 0 0 1]"
+    return (f"cam0={cam}\ncam1={cam}\ndoffs=0\nbaseline={BASELINE_MM:g}\nwidth={width}\n"
+            f"height={height}\nndisp={dmax + 1}\nisint=0\nvmin=0\nvmax={dmax}\n")
+
+
 def write_scene(directory, width=450, height=375, dmax=64, seed=0):
-    """Write left.png, right.png, gt.pfm (all pixels known) and nonocc.png (255 where
-    the left pixel is visible in the right image, Middlebury's mask convention)."""
+    """Write left.png, right.png, gt.pfm (all pixels known), nonocc.png (255 where the
+    left pixel is visible in the right image, Middlebury's mask convention) and calib.txt
+    (the rig, see calib_text)."""
     from pathlib import Path
 
     from ..io import atomic_write_all, pfm_writer, png_writer
@@ -148,11 +161,13 @@ def write_scene(directory, width=450, height=375, dmax=64, seed=0):
     left, right, gt, nonocc = render(width, height, dmax, seed)
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    # All four or none: a scene missing a file would be scored wrongly.
+    # All or none: a scene missing a file would be scored wrongly.
+    calib = calib_text(width, height, dmax)
     atomic_write_all([(directory / "left.png", png_writer(left)),
                       (directory / "right.png", png_writer(right)),
                       (directory / "gt.pfm", pfm_writer(gt)),
-                      (directory / "nonocc.png", png_writer((nonocc * 255).astype(np.uint8)))])
+                      (directory / "nonocc.png", png_writer((nonocc * 255).astype(np.uint8))),
+                      (directory / "calib.txt", lambda tmp: Path(tmp).write_text(calib))])
     return left, right, gt, nonocc
 
 

@@ -363,8 +363,11 @@ def negative_message(suffix):
 
 
 def check_range(path, dmax, dmin=0):
-    """ValueError when the format of ``path`` can't hold disparities dmin..dmax."""
+    """ValueError when the format of ``path`` can't hold disparities dmin..dmax (a bound
+    "auto" is checked when the map is written)."""
     suffix = Path(path).suffix.lower()
+    dmax = 0 if dmax == "auto" else dmax
+    dmin = 0 if dmin == "auto" else dmin
     if suffix in FORMATS and dmax > FORMATS[suffix].largest:
         raise ValueError(too_large_message(suffix, dmax))
     if suffix in FORMATS and dmin < 0 and not FORMATS[suffix].floats:
@@ -382,6 +385,22 @@ def stripe_writer(path, shape, blocks):
     """A ``write_to(tmp)`` that writes a map of ``shape`` from ``blocks`` (see the
     module's docstring) in the format of path's suffix."""
     return format_of(path, "stripes").stripes(path, shape, blocks)
+
+
+def float_map_writer(path, values):
+    """A ``write_to(tmp)`` for a whole float32 (H, W) map (depth, confidence) in a float
+    format of the table: written whole where the format can, else a band at a time from
+    the array; invalid (NaN) as the format stores it."""
+    fmt = format_of(path, "confidence")
+    values = np.asarray(values, np.float32)
+    if fmt.whole is not None:
+        return fmt.whole(values)
+
+    def blocks(rows, bottom_up=False):
+        starts = range(0, values.shape[0], rows)
+        for start in reversed(starts) if bottom_up else starts:
+            yield start, values[start:start + rows]
+    return fmt.stripes(path, values.shape, blocks)
 
 
 def write_disparity(path, disp):

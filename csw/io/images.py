@@ -78,6 +78,27 @@ def read_image(path):
     return to_gray(image, str(path))
 
 
+def read_colour(path):
+    """An image file as it is, for colours: uint8/uint16 (H, W) gray or (H, W, 3) RGB
+    (alpha dropped, palettes expanded); ImageError when unusable."""
+    import imageio.v3 as iio
+
+    path = Path(path)
+    if _is_16bit_colour_png(path):
+        image = _read_png16(path)
+    else:
+        try:
+            image = iio.imread(path, plugin="pillow", index=0)
+        except FileNotFoundError:
+            raise ImageError(f"{path}: no such file") from None
+        except Exception as exc:
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise ImageError(f"{path}: not a readable image ({reason[:120]})") from None
+    if image.ndim == 3 and image.shape[2] == 2:  # gray + alpha
+        image = image[..., 0]
+    return np.ascontiguousarray(image[..., :3] if image.ndim == 3 else image)
+
+
 def _is_16bit_colour_png(path):
     """Whether ``path`` is a PNG with 16-bit RGB(A) pixels, which Pillow would cut to 8
     bits: its IHDR says bit depth 16 and colour type 2 (RGB) or 6 (RGBA)."""

@@ -150,6 +150,9 @@ def too_big_for_whole(left, opts, memory_limit=None):
     memory_limit = DEFAULT_MEMORY_LIMIT if memory_limit is None else memory_limit
     source = open_source(left, "left", probe=False)
     height, width = source.shape
+    if "auto" in (opts["dmin"], opts["dmax"]):  # not known yet: the widest it can be
+        opts = dict(opts, dmin=0 if opts["dmin"] == "auto" else opts["dmin"],
+                    dmax=width // 2 if opts["dmax"] == "auto" else opts["dmax"])
     whole = plan(height, width, opts, stripe_rows=height, colour=source.colour)
     return whole.bytes_per_stripe > memory_limit
 

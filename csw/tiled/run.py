@@ -111,11 +111,22 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
     height, width = left.shape
     layout = []  # the plan, once made: tau auto samples each row from its own band
 
-    def make_plan():
-        layout.append(plan(height, width, opts, limit, stripe_rows,
+    def make_plan(resolved):
+        layout.append(plan(height, width, resolved, limit, stripe_rows,
                            colour=left.colour or right.colour,
                            resident=left.resident_bytes + right.resident_bytes))
         return layout[0]
+
+    def shrunk(f):
+        from ..autorange import shrink
+
+        def small(source):  # whole blocks of f rows, a band at a time
+            band = f * max(1, 2**20 // (f * width))
+            rows = [shrink(source.rows(r, min(r + band, height // f * f)), f)
+                    for r in range(0, height // f * f, band)]
+            return np.vstack(rows)
+
+        return small(left), small(right)
 
     def sample_min_cost(args, stages, rows):
         found = []
@@ -128,7 +139,7 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
 
     ready = prepare(opts, (height, width), left.dtype, right=(right.shape, right.dtype),
                     sample_min_cost=sample_min_cost, make_plan=make_plan,
-                    confidence=confidence is not None)
+                    confidence=confidence is not None, shrunk=shrunk)
     layout = ready.plan
     start_time = time.perf_counter()
     totals = _run_passes(left, right, output, confidence, preview, layout, ready.args,

@@ -23,12 +23,17 @@ def summary_line(result):
     mode = (f"CSW {s['csw_rule']} tau={tau_label(s['tau'])}{tau_note}" if s["csw"]
             else "plain")
     stripes = f", {result.stripes} stripe(s)" if result.stripes else ""
+    notes = ""
+    if s.get("range_source") not in (None, "given", "default"):
+        notes += f"; range d {s['dmin']}..{s['dmax']} from {s['range_source']}"
+    if s.get("calibration"):
+        notes += f"; calibration {s['calibration']}"
     return (f"{width}x{height} d {s['dmin']}..{s['dmax']} {s['cost'].upper()} "
             f"{s['window']}x{s['window']} {mode}, preset {s['preset']} "
             f"({s['engine']} engine{stripes}): "
             f"{result.seconds:.3f} s (compile {result.compile_seconds:.2f} s), evaluated "
             f"{100.0 * result.evaluated / max(result.candidates, 1):.1f}% of candidates, "
-            f"invalid {100.0 * result.invalid_share:.1f}%")
+            f"invalid {100.0 * result.invalid_share:.1f}%{notes}")
 
 
 def write_error(exc):
@@ -101,10 +106,23 @@ def memory_size(ctx, param, value):
 @click.option("--confidence", type=click.Path(dir_okay=False),
               help="Also write the confidence (0..1: how much the best cost beats the "
                    "second best) as PFM (or .npy, .tif, .zarr).")
+@opt.calibration_options
+@click.option("--depth", type=click.Path(dir_okay=False),
+              help="Also write the depth map (.pfm, .npy, .tif), from the calibration. "
+                   "Many pairs: the format, e.g. .pfm: NAME.depth.pfm beside each map.")
+@click.option("--cloud", type=click.Path(dir_okay=False),
+              help="Also write the point cloud (binary PLY, coloured from LEFT). Many "
+                   "pairs: .ply, for NAME.ply beside each map.")
+@click.option("--depth-preview", type=click.Path(dir_okay=False),
+              help="Also write a colour PNG of the depth. Many pairs: .png, for "
+                   "NAME.depth.png.")
+@click.option("--max-depth", type=click.FloatRange(min=0, min_open=True),
+              help="Leave points farther than this out of the cloud.")
 @opt.stage_options()
 @click.pass_context
 def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, summary, workers,
-          scheduler, memory_limit, preview, cost_map, confidence, **_):
+          scheduler, memory_limit, preview, cost_map, confidence, depth, cloud,
+          depth_preview, max_depth, units, **_):
     """Match LEFT against RIGHT (left is the reference) and write the disparity map.
 
     The match of left pixel x is right pixel x - d, for d in [DMIN, DMAX].  With --csw,
@@ -133,6 +151,9 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     settings = opt.given(ctx, MATCH_OPTIONS)
     with opt.library_errors():
         params.resolve(**settings)  # a bad option fails before any file is read
+    calibration = opt.calibration(ctx.params)
+    three_d = dict(depth=depth, cloud=cloud, depth_preview=depth_preview,
+                   max_depth=max_depth, units=units)
     many = manifest is not None or output_dir is not None or \
         (left is not None and Path(left).is_dir())
     if many:
@@ -145,7 +166,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
         if left is not None and (right is None or not Path(right).is_dir()):
             raise click.UsageError("with a LEFT folder, RIGHT must be a folder too")
         return match_batch(left, right, manifest, output_dir, suffix, overwrite, summary,
-                           settings, workers, scheduler)
+                           settings, workers, scheduler, calibration, three_d)
     if left is None or right is None:
         raise click.UsageError("give LEFT and RIGHT images (or folders with --output-dir)")
     if output is None:
@@ -156,15 +177,16 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     try:
         with opt.library_errors(), cluster(workers, scheduler) as client:
             result = match_files(left, right, output, confidence=confidence, preview=preview,
-                                 cost_map=cost_map, memory_limit=memory_limit, client=client,
-                                 progress=True, **settings)
+                                 cost_map=cost_map, calib=calibration,
+                                 memory_limit=memory_limit, client=client, progress=True,
+                                 **three_d, **settings)
     except OSError as exc:
         raise write_error(exc) from None
     click.echo(summary_line(result), err=True)
 
 
 def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, settings,
-                workers=None, scheduler=None):
+                workers=None, scheduler=None, calibration=None, three_d=None):
     """The batch form: pairs from two folders or a manifest, into OUTPUT_DIR."""
     from csw import jobs_from_folders, jobs_from_manifest, match_many
     from csw.distributed import cluster
@@ -176,7 +198,8 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
         jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left, right)
     with opt.library_errors(), cluster(workers, scheduler) as client:
         report = match_many(jobs, out, suffix=suffix, overwrite=overwrite, progress=True,
-                            summary=summary, client=client, **settings)
+                            summary=summary, client=client, calib=calibration,
+                            **(three_d or {}), **settings)
     counts = report["counts"]
     summary_path = summary or out / "summary.json"
     click.echo(f"{counts['ok']} matched, {counts['skipped']} skipped (output exists; "

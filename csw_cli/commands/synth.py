@@ -30,7 +30,7 @@ def parse_size(ctx, param, value):
               help="Write left.tif, right.tif and gt.tif as tiled (Big)TIFFs, rendered by "
                    "row bands on every core: for pairs bigger than memory.")
 def synth(directory, size, dmax, seed, tiff):
-    """Write left.png, right.png, gt.pfm and nonocc.png into DIRECTORY.
+    """Write left.png, right.png, gt.pfm, nonocc.png and calib.txt into DIRECTORY.
 
     The scene is deterministic: a slanted textured background and fronto-parallel boxes
     and discs in front of it, rendered with exact occlusion.  gt.pfm holds the left
@@ -56,5 +56,6 @@ def synth(directory, size, dmax, seed, tiff):
     except OSError as exc:
         raise click.ClickException(f"can't write the scene to {directory}: "
                                    f"{exc.strerror or exc}") from None
-    names = "left.tif, right.tif, gt.tif" if tiff else "left.png, right.png, gt.pfm, nonocc.png"
+    names = "left.tif, right.tif, gt.tif" if tiff else \
+        "left.png, right.png, gt.pfm, nonocc.png, calib.txt"
     click.echo(f"wrote {directory}/{names} ({width}x{height}, d up to {dmax})", err=True)

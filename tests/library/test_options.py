@@ -65,14 +65,15 @@ def values_for(name):
         "off_int": st.one_of(st.none(), st.just("off"), st.integers(0, 50)),
         "auto_int": st.one_of(st.none(), st.integers(1, 2)),
         "tau": st.one_of(st.none(), st.sampled_from(["auto", "none"]), st.floats(0, 500)),
+        "int_auto": st.one_of(st.just("auto"), st.integers(-8, 30)),
     }[option.kind]
     return st.one_of(valid, GARBAGE)
 
 
 # Options kept small so that every drawn match stays quick.
 SMALL = {"window": st.one_of(st.sampled_from([1, 3, 5, 9, 41, 4, -3, "7", 2.5]), GARBAGE),
-         "dmax": st.one_of(st.integers(0, 45), GARBAGE),
-         "dmin": st.one_of(st.integers(0, 10), GARBAGE),
+         "dmax": st.one_of(st.integers(-5, 45), st.just("auto"), GARBAGE),
+         "dmin": st.one_of(st.integers(-10, 10), st.just("auto"), GARBAGE),
          "speckle_size": st.one_of(st.integers(0, 300), GARBAGE),
          "threads": st.one_of(st.none(), st.integers(-1, 3), GARBAGE)}
 
@@ -87,5 +88,6 @@ def test_any_option_values_give_a_result_or_a_value_error(options):
         return
     assert result.disparity.shape == LEFT.shape and result.disparity.dtype == np.float32
     for name, value in options.items():
-        if name not in ("tau", "uniqueness"):  # resolved to the numbers used
+        # tau, uniqueness and a range "auto" are resolved to the numbers used
+        if name not in ("tau", "uniqueness") and params.check(name, value) != "auto":
             assert result.settings[name] == params.check(name, value), name

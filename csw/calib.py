@@ -1,0 +1,283 @@
+"""A rectified pair's calibration, read from what people have: Middlebury's calib.txt,
+KITTI's projection matrices, OpenCV's reprojection matrix Q, or values given by hand.
+
+Every source becomes one :class:`Calibration`: the focal length f and principal point
+(cx, cy) of the rectified left camera in pixels, the baseline B between the cameras, the
+disparity offset doffs (the right principal point's x less the left's) and the units of
+B.  Depth is then Z = f B / (d + doffs) in those units, and a pixel (x, y) with disparity
+d is the point Q (x, y, d, 1) of OpenCV's reprojection (x right, y down, z forward, in
+the left camera's frame).
+"""
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .params import OptionError
+
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "km": 1000.0, "in": 0.0254,
+         "ft": 0.3048}
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """A rectified pair's geometry.
+
+    focal, cx, cy: the rectified left camera's focal length and principal point (pixels);
+        cx, cy None for the image's centre.
+    baseline: the distance between the cameras' centres, in ``units``.
+    doffs: the disparity offset, the right principal point's x less the left's (pixels):
+        Z = focal * baseline / (d + doffs).
+    units: the baseline's units ("mm", "m" ...), or None where the source doesn't say.
+    width, height: the image size the calibration is for, where the source says it.
+    ndisp: the disparities 0..ndisp-1 that bound the scene (Middlebury), or None.
+    q: OpenCV's 4x4 reprojection matrix, where that was the source (kept as given, so
+        that points equal cv2.reprojectImageTo3D's).
+    source: where it came from, for messages and summaries.
+    """
+
+    focal: float
+    baseline: float
+    cx: float | None = None  # None: the image's centre, (W - 1) / 2
+    cy: float | None = None
+    doffs: float = 0.0
+    units: str | None = None
+    width: int | None = None
+    height: int | None = None
+    ndisp: int | None = None
+    q: tuple | None = None
+    source: str = "given values"
+
+    def __post_init__(self):
+        for name in ("focal", "baseline", "cx", "cy", "doffs"):
+            value = getattr(self, name)
+            if value is None and name in ("cx", "cy"):
+                continue
+            if not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise ValueError(f"{self.source}: {name} must be a finite number, got "
+                                 f"{value!r}")
+        if self.focal == 0 or self.baseline == 0:
+            which = "focal length" if self.focal == 0 else "baseline"
+            raise ValueError(f"{self.source}: the {which} is 0, so no depth follows from "
+                             "it; check the calibration")
+        if self.units is not None and self.units not in UNITS:
+            raise ValueError(f"{self.source}: unknown units {self.units!r}; use "
+                             f"{', '.join(UNITS)}")
+
+    def matrix(self, shape=None):
+        """OpenCV's reprojection matrix Q (float64 (4, 4)): [X Y Z W] = Q [x y d 1];
+        shape (H, W) places a principal point not given at the image's centre."""
+        if self.q is not None:
+            return np.array(self.q, np.float64)
+        height, width = shape if shape is not None else (1, 1)
+        cx = (width - 1) / 2 if self.cx is None else self.cx
+        cy = (height - 1) / 2 if self.cy is None else self.cy
+        return np.array([[1, 0, 0, -cx], [0, 1, 0, -cy], [0, 0, 0, self.focal],
+                         [0, 0, 1 / self.baseline, self.doffs / self.baseline]], np.float64)
+
+    def check_size(self, shape):
+        """ValueError when the calibration is for another image size than ``shape``."""
+        if self.width is not None and self.height is not None and \
+                (self.height, self.width) != tuple(shape):
+            raise OptionError("calib", f"{self.source} is for {self.width}x{self.height} "
+                                       f"images but the disparity map is {shape[1]}x"
+                                       f"{shape[0]}; use the calibration of these images")
+
+    def scale_to(self, units):
+        """The factor from the calibration's units to ``units`` (1 for None)."""
+        if units is None:
+            return 1.0
+        if units not in UNITS:
+            raise OptionError("units", f"unknown units {units!r}; use {', '.join(UNITS)}")
+        if self.units is None:
+            raise OptionError("units", f"{self.source} doesn't say its units (an OpenCV Q "
+                                       "or given values are in the baseline's own units); "
+                                       "leave the units out")
+        return UNITS[self.units] / UNITS[units]
+
+    def describe(self):
+        """One line for summaries: the source, f, B and doffs."""
+        units = f" {self.units}" if self.units else ""
+        return (f"{self.source} (f {self.focal:g} px, baseline {self.baseline:g}{units}, "
+                f"doffs {self.doffs:g})")
+
+    def as_dict(self):
+        """The record as plain values (batch summaries)."""
+        return {k: getattr(self, k) for k in ("source", "focal", "baseline", "cx", "cy",
+                                              "doffs", "units")}
+
+
+def given(focal, baseline, cx=None, cy=None, doffs=0.0, units=None):
+    """A Calibration from values given by hand (the CLI's --focal, --baseline, ...); the
+    principal point defaults to the image's centre."""
+    def number(value):
+        return None if value is None else float(value)
+
+    return Calibration(float(focal), float(baseline), number(cx), number(cy),
+                       float(doffs or 0.0), units, source="the values given")
+
+
+def from_options(calib=None, focal=None, baseline=None, cx=None, cy=None, doffs=None):
+    """The calibration the command line names: a file (``calib``), or values given by
+    hand (focal and baseline at least), or None; OptionError for both at once or for a
+    half-given set of values."""
+    values = {"focal": focal, "baseline": baseline, "cx": cx, "cy": cy, "doffs": doffs}
+    named = [k for k, v in values.items() if v is not None]
+    if calib is not None and named:
+        raise OptionError(named[0], "give a calibration file or its values, not both")
+    if calib is not None:
+        return read_calibration(calib)
+    if not named:
+        return None
+    for key in ("focal", "baseline"):
+        if values[key] is None:
+            raise OptionError(key, f"values given by hand need the {key} too")
+    return given(focal, baseline, cx, cy, doffs)
+
+
+def read_calibration(path):
+    """The Calibration in ``path``, its format found from its content: Middlebury 2014
+    calib.txt, KITTI calib (P2/P3 or P_rect_02/P_rect_03), an OpenCV FileStorage
+    YAML/XML file with a Q node, or a 4x4 Q in a .npy file.  ValueError (an OptionError
+    for "calib"), naming the file and what is missing, when it is none of them."""
+    path = Path(path)
+    try:
+        if path.suffix.lower() == ".npy":
+            return from_q(np.load(path, allow_pickle=False), str(path))
+        text = path.read_text(errors="replace")
+    except FileNotFoundError:
+        raise OptionError("calib", f"{path}: no such file") from None
+    except (OSError, ValueError) as exc:
+        raise OptionError("calib", f"{path}: can't read it ({exc})") from None
+    try:
+        if re.search(r"^\s*cam0\s*=", text, re.MULTILINE):
+            return _middlebury(text, str(path))
+        if re.search(r"^\s*(P2|P_rect_02)\s*:", text, re.MULTILINE):
+            return _kitti(text, str(path))
+        if re.search(r"(^\s*Q\s*:|<Q[\s>])", text, re.MULTILINE):
+            return from_q(_opencv_q(text, str(path)), str(path))
+    except OptionError:
+        raise
+    except ValueError as exc:
+        raise OptionError("calib", str(exc)) from None
+    raise OptionError("calib", f"{path}: not a calibration csw knows (Middlebury calib.txt "
+                               "with cam0=..., KITTI calib with P2:/P3: or P_rect_02/03, "
+                               "an OpenCV YAML/XML with a Q matrix, or a 4x4 .npy)")
+
+
+def _numbers(text):
+    return [float(v) for v in re.findall(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", text)]
+
+
+def _middlebury(text, source):
+    """Middlebury 2014's calib.txt: cam0=[f 0 cx; 0 f cy; 0 0 1], cam1, doffs, baseline
+    (mm), width, height, ndisp, ..."""
+    values = dict(re.findall(r"^\s*(\w+)\s*=\s*(.+?)\s*$", text, re.MULTILINE))
+    missing = [k for k in ("cam0", "baseline") if k not in values]
+    if "doffs" not in values and "cam1" not in values:
+        missing.append("doffs (or cam1)")
+    if missing:
+        raise ValueError(f"{source}: a Middlebury calib.txt without {', '.join(missing)}")
+    cam0 = _numbers(values["cam0"])
+    if len(cam0) != 9:
+        raise ValueError(f"{source}: cam0 must be a 3x3 matrix [f 0 cx; 0 f cy; 0 0 1]")
+    doffs = float(values["doffs"]) if "doffs" in values else \
+        _numbers(values["cam1"])[2] - cam0[2]
+
+    def whole(key):
+        return int(float(values[key])) if key in values else None
+
+    return Calibration(cam0[0], float(values["baseline"]), cam0[2], cam0[5], doffs, "mm",
+                       whole("width"), whole("height"), whole("ndisp"), source=source)
+
+
+def _kitti(text, source):
+    """KITTI: P2/P3 (the object and stereo benchmarks' calib files) or P_rect_02 and
+    P_rect_03 (calib_cam_to_cam.txt), 3x4 projection matrices of the rectified colour
+    cameras in metres."""
+    rows = dict(re.findall(r"^\s*(\w+)\s*:\s*(.+?)\s*$", text, re.MULTILINE))
+    left = rows.get("P2") or rows.get("P_rect_02")
+    right = rows.get("P3") or rows.get("P_rect_03")
+    if left is None or right is None:
+        raise ValueError(f"{source}: a KITTI calibration without "
+                         f"{'P3 (or P_rect_03)' if left else 'P2 (or P_rect_02)'}")
+    p2, p3 = (np.array(_numbers(r), np.float64) for r in (left, right))
+    if p2.size != 12 or p3.size != 12:
+        raise ValueError(f"{source}: P2 and P3 must hold 12 numbers each (3x4)")
+    p2, p3 = p2.reshape(3, 4), p3.reshape(3, 4)
+    focal = p2[0, 0]
+    if focal == 0:
+        raise ValueError(f"{source}: P2's focal length is 0")
+    # P = K [I | t] with t = -C: the x offsets give the cameras' centres, in metres.
+    baseline = (p2[0, 3] - p3[0, 3]) / focal
+    size = re.search(r"^\s*S_rect_02\s*:\s*(.+?)\s*$", text, re.MULTILINE)
+    width = height = None
+    if size:
+        width, height = (int(round(v)) for v in _numbers(size.group(1))[:2])
+    return Calibration(float(focal), float(baseline), float(p2[0, 2]), float(p2[1, 2]),
+                       float(p3[0, 2] - p2[0, 2]), "m", width, height, source=source)
+
+
+def _opencv_q(text, source):
+    """The Q matrix of an OpenCV FileStorage file, YAML or XML (as cv::FileStorage writes
+    stereoRectify's Q)."""
+    if "<opencv_storage" in text or text.lstrip().startswith("<?xml"):
+        import xml.etree.ElementTree as ET
+
+        try:
+            node = ET.fromstring(text).find("Q")
+        except ET.ParseError as exc:
+            raise ValueError(f"{source}: not readable XML ({exc})") from None
+        if node is None or node.find("data") is None:
+            raise ValueError(f"{source}: no Q matrix with its data")
+        values = _numbers(node.find("data").text or "")
+    else:
+        found = re.search(r"^\s*Q\s*:.*?data\s*:\s*\[(.*?)\]", text, re.MULTILINE | re.DOTALL)
+        if not found:
+            raise ValueError(f"{source}: no Q matrix with its data: [...]")
+        values = _numbers(found.group(1))
+    if len(values) != 16:
+        raise ValueError(f"{source}: Q must be 4x4, got {len(values)} numbers")
+    return np.array(values, np.float64).reshape(4, 4)
+
+
+def from_q(q, source="Q"):
+    """A Calibration from OpenCV's 4x4 reprojection matrix Q (stereoRectify's):
+    f = Q[2,3], cx = -Q[0,3], cy = -Q[1,3], B = 1 / Q[3,2], doffs = Q[3,3] / Q[3,2]."""
+    q = np.asarray(q, np.float64)
+    if q.shape != (4, 4) or not np.isfinite(q).all():
+        raise OptionError("calib", f"{source}: Q must be a finite 4x4 matrix, got shape "
+                                   f"{q.shape}")
+    if abs(np.linalg.det(q)) < 1e-12:
+        raise OptionError("calib", f"{source}: Q is not invertible (its determinant is 0): "
+                                   "no depth follows from it")
+    if q[3, 2] == 0:
+        raise OptionError("calib", f"{source}: Q[3,2] = -1/Tx is 0: no baseline")
+    return Calibration(float(q[2, 3]), float(1 / q[3, 2]), float(-q[0, 3]), float(-q[1, 3]),
+                       float(q[3, 3] / q[3, 2]), None, q=tuple(map(tuple, q)), source=source)
+
+
+def resolve(calib=None, left=None):
+    """The calibration a match uses: ``calib`` (a Calibration, or a path to read), else
+    the calib.txt beside the left image (Middlebury 2014's layout), else None."""
+    if isinstance(calib, Calibration):
+        return calib
+    if calib is not None:
+        return read_calibration(calib)
+    found = beside(left)
+    return read_calibration(found) if found is not None else None
+
+
+def beside(image):
+    """The calib.txt in the folder of ``image`` (Middlebury 2014's layout), or None."""
+    if not isinstance(image, (str, Path)):
+        return None
+    candidate = Path(image).parent / "calib.txt"
+    return candidate if candidate.is_file() else None
+
+
+__all__ = ["UNITS", "Calibration", "beside", "from_q", "given", "read_calibration",
+           "resolve"]

@@ -1,0 +1,188 @@
+"""From disparity to 3-D: depth maps, point clouds as binary PLY, and a depth preview.
+
+Depth is Z = f B / (d + doffs) in the calibration's units (csw.calib); points are
+OpenCV's reprojection, [X Y Z W] = Q [x y d 1] (x right, y down, z forward, in the left
+camera's frame), so they equal cv2.reprojectImageTo3D's for the same Q.
+"""
+
+import numpy as np
+
+from .io.formats import as_float_disparity
+
+# A turbo-like ramp, dark blue to dark red, by linear interpolation between these colours
+# (sampled from Google's Turbo colormap), so no plotting library is needed.
+RAMP = np.array([[48, 18, 59], [70, 117, 237], [27, 208, 213], [97, 252, 108],
+                 [210, 233, 53], [254, 155, 45], [218, 57, 7], [122, 4, 3]], np.float64)
+
+
+def _homogeneous(disparity, calib):
+    """(X, Y, Z, W) of every pixel, float64 (H, W) each, and the valid pixels: a finite
+    disparity whose W is positive (the point lies in front of the cameras)."""
+    disp = as_float_disparity(disparity)
+    calib.check_size(disp.shape)
+    q = calib.matrix(disp.shape)
+    y, x = np.indices(disp.shape, dtype=np.float64)
+    d = np.nan_to_num(disp)
+    out = [q[i, 0] * x + q[i, 1] * y + q[i, 2] * d + q[i, 3] for i in range(4)]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        valid = np.isfinite(disp) & (out[3] * np.sign(q[2, 3]) > 0)
+    return out, valid
+
+
+def depth(disparity, calib, units=None):
+    """The depth map of ``disparity`` (float or int, any of csw's conventions) with a
+    csw.calib.Calibration: float32 (H, W), Z = f B / (d + doffs), in the calibration's
+    units or ``units`` ("m", "mm" ...); NaN where the disparity is invalid or the point
+    would not lie in front of the cameras (d + doffs <= 0)."""
+    scale = calib.scale_to(units)
+    (_, _, z, w), valid = _homogeneous(disparity, calib)
+    out = np.full(z.shape, np.nan, np.float32)
+    out[valid] = (z[valid] / w[valid] * scale).astype(np.float32)
+    return out
+
+
+def point_cloud(disparity, calib, image=None, max_depth=None, units=None):
+    """The 3-D points of the valid pixels, row by row: (points float32 (N, 3), colours
+    uint8 (N, 3) or None).  image: the left image (H, W) gray or (H, W, 3|4) colour,
+    8 or 16 bits, for the colours.  max_depth: drop points farther than this (in the
+    output's units).  Pixels with no valid disparity, or behind the cameras, are left
+    out."""
+    scale = calib.scale_to(units)
+    (x, y, z, w), valid = _homogeneous(disparity, calib)
+    if max_depth is not None:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            valid &= z / w * scale <= max_depth
+    points = np.stack([x[valid], y[valid], z[valid]], axis=1) / w[valid][:, None] * scale
+    return points.astype(np.float32), _colours(image, valid)
+
+
+def _colours(image, valid):
+    if image is None:
+        return None
+    image = np.asarray(image)
+    if image.shape[:2] != valid.shape:
+        raise ValueError(f"the image is {image.shape[1]}x{image.shape[0]} but the "
+                         f"disparity map is {valid.shape[1]}x{valid.shape[0]}")
+    if image.dtype == np.uint16:
+        image = (image >> 8).astype(np.uint8)
+    if image.dtype != np.uint8:
+        raise ValueError(f"the image must be 8- or 16-bit, got {image.dtype}")
+    if image.ndim == 2:
+        image = np.repeat(image[..., None], 3, axis=2)
+    return np.ascontiguousarray(image[..., :3][valid])
+
+
+def ply_writer(points, colours=None):
+    """A ``write_to(tmp)`` for a binary little-endian PLY: float32 x, y, z per vertex,
+    and uchar red, green, blue where colours are given."""
+    fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
+    if colours is not None:
+        fields += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
+    vertices = np.empty(len(points), fields)
+    for i, axis in enumerate("xyz"):
+        vertices[axis] = points[:, i]
+    if colours is not None:
+        for i, channel in enumerate(("red", "green", "blue")):
+            vertices[channel] = colours[:, i]
+    properties = "".join(f"property {'float' if t == '<f4' else 'uchar'} {name}\n"
+                         for name, t in fields)
+    header = (f"ply\nformat binary_little_endian 1.0\ncomment written by csw\n"
+              f"element vertex {len(points)}\n{properties}end_header\n").encode("ascii")
+
+    def write(tmp):
+        with open(tmp, "wb") as f:
+            f.write(header)
+            f.write(vertices.tobytes())
+    return write
+
+
+def write_ply(path, points, colours=None):
+    """Write a point cloud as binary PLY, atomically (see ply_writer)."""
+    from .io.atomic import atomic_write
+
+    atomic_write(path, ply_writer(points, colours))
+
+
+def preview(depth_map):
+    """uint8 (H + bar, W, 3): the depth map in a turbo-like ramp, near warm and far cool,
+    over its 1st to 99th percentile, invalid black; below it a colour bar labelled with
+    the depths at its ends, so that the picture says what it shows."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    values = depth_map[np.isfinite(depth_map)]
+    near, far = (np.percentile(values, (1, 99)) if values.size else (0.0, 1.0))
+    far = max(far, near + 1e-6)
+    height, width = depth_map.shape
+    t = 1 - np.clip((np.nan_to_num(depth_map, nan=far) - near) / (far - near), 0, 1)
+    picture = _ramp(t)
+    picture[~np.isfinite(depth_map)] = 0
+    bar = np.zeros((28, width, 3), np.uint8)
+    bar[4:14] = _ramp(1 - np.linspace(0, 1, width))[None]
+    canvas = Image.fromarray(np.vstack([picture, bar]))
+    draw = ImageDraw.Draw(canvas)
+    font = ImageFont.load_default()
+    draw.text((2, height + 15), f"{near:.3g} (near)", fill=(255, 255, 255), font=font)
+    label = f"(far) {far:.3g}"
+    draw.text((max(width - 7 * len(label) - 2, 2), height + 15), label, fill=(255, 255, 255),
+              font=font)
+    return np.asarray(canvas)
+
+
+def _ramp(t):
+    """RGB uint8 of the ramp at t in 0..1 (0 dark blue, 1 dark red)."""
+    position = np.asarray(t, np.float64) * (len(RAMP) - 1)
+    low = np.floor(position).astype(int).clip(0, len(RAMP) - 2)
+    frac = (position - low)[..., None]
+    return np.round(RAMP[low] * (1 - frac) + RAMP[low + 1] * frac).astype(np.uint8)
+
+
+DEPTH_SUFFIXES = (".pfm", ".npy", ".tif", ".tiff")  # float maps written whole
+CLOUD_SUFFIXES = (".ply",)
+
+
+def writers(disparity, calib, depth_path=None, cloud_path=None, preview_path=None,
+            image=None, max_depth=None, units=None):
+    """(path, write_to) for each 3-D output asked for, to be written together with the
+    map (csw.io.atomic.atomic_write_all): the depth map (DEPTH_SUFFIXES), its preview
+    (PNG) and the point cloud (PLY, coloured from ``image`` where given)."""
+    from pathlib import Path
+
+    from .io.formats import float_map_writer, png_writer
+
+    items = []
+    if depth_path is not None or preview_path is not None:
+        z = depth(disparity, calib, units)
+        if depth_path is not None:
+            items.append((Path(depth_path), float_map_writer(depth_path, z)))
+        if preview_path is not None:
+            items.append((Path(preview_path), png_writer(preview(z))))
+    if cloud_path is not None:
+        points, colours = point_cloud(disparity, calib, image, max_depth, units)
+        items.append((Path(cloud_path), ply_writer(points, colours)))
+    return items
+
+
+def depth_file(disparity, output, calib, units=None, preview_path=None):
+    """Read a disparity map file, write its depth map (and preview), atomically; returns
+    the depth map (float32, NaN invalid).  calib: a csw.Calibration."""
+    from .io.atomic import atomic_write_all
+    from .io.formats import read_disparity
+
+    disp = read_disparity(disparity)
+    items = writers(disp, calib, output, None, preview_path, units=units)
+    atomic_write_all(items)
+    return depth(disp, calib, units)
+
+
+def cloud_file(disparity, output, calib, image=None, max_depth=None, units=None):
+    """Read a disparity map file (and the left image, for colours), write the point cloud
+    as binary PLY, atomically; returns the number of points."""
+    from .io.atomic import atomic_write
+    from .io.formats import read_disparity
+    from .io.images import read_colour
+
+    disp = read_disparity(disparity)
+    image = read_colour(image) if image is not None else None
+    points, colours = point_cloud(disp, calib, image, max_depth, units)
+    atomic_write(output, ply_writer(points, colours))
+    return len(points)
