@@ -115,12 +115,18 @@ def speckle_mask(disp, small, parent, size, above, here, max_diff, sc):
                 parent[rb] = ra
                 size[ra] += size[rb]
         above, here = here, above
+    # Each run's verdict, once: parent[run] becomes its root, then whether the root's
+    # region is small (each entry then read by its own run only).
+    for run in range(next_run):
+        parent[run] = _root(parent, run)
+    for run in range(next_run):
+        parent[run] = size[parent[run]] < max_size
     next_run = 0
     for y in range(height):
         next_run = _row_runs(disp, y, limit, here, next_run)
         for x in range(width):
             run = here[x]
-            small[y, x] = run >= 0 and size[_root(parent, run)] < max_size
+            small[y, x] = run >= 0 and parent[run] != 0
     return 0
 
 
