@@ -14,8 +14,10 @@ what it uses and each entry carries no code for the maps it does not make.
 The cache (``cache_dir()``) is one folder per CPU, Python, llvmlite and kernel source:
 any change of those gives a new folder, never a stale entry.  Entries are written to a
 temporary file and renamed, and a lock beside them makes concurrent first runs compile
-each entry once while the others wait.  With ``NUMBA_DISABLE_JIT=1`` the entries run as
-plain Python (for debugging and coverage), with the same results.
+each entry once while the others wait.  The process holding the lock compiles what is
+missing in worker processes, one per core, since Numba compiles on one.  With
+``NUMBA_DISABLE_JIT=1`` the entries run as plain Python (for debugging and coverage),
+with the same results.
 """
 
 import ctypes
@@ -34,7 +36,7 @@ JIT_SOURCES = Path(__file__).with_name("jit")
 
 # Seconds Numba takes to compile each kernel's entry on the machines csw was measured on
 # (2-core AMD EPYC); the notice before a compile sums them for what is missing.
-COMPILE_SECONDS = {"fast": 3.0, "window": 1.5, "census": 0.8, "filters": 0.6}
+COMPILE_SECONDS = {"fast": 4.0, "window": 1.5, "census": 1.0, "filters": 0.8}
 START_SECONDS = 1.0  # importing Numba and its first compile's set-up
 
 # What happened in this process: entries loaded from the cache, and entries compiled.
@@ -146,14 +148,18 @@ def missing_seconds(wanted):
 
 
 def _compile(folder, missing, progress=None, notice=True):
-    estimate = START_SECONDS + sum(COMPILE_SECONDS.get(k, 1.0) for k, _ in missing)
+    shares = _shares(missing, min(len(missing), _cores()))
+    estimate = START_SECONDS + max(sum(COMPILE_SECONDS.get(k, 1.0) for k, _ in share)
+                                   for share in shares)
     if notice and estimate >= 1.0 and not _NOTICE["shown"]:
         _NOTICE["shown"] = True
         notify(f"csw: compiling csw's kernels for this CPU, once: about {estimate:.0f} s "
                f"(later runs load them from {folder})")
-    from .jit import build
+    if len(shares) > 1:
+        missing = _compile_in_processes(folder, missing, shares, progress)
+    for kernel, variant in missing:  # all of them on one core, or what the others left
+        from .jit import build
 
-    for kernel, variant in missing:
         start = time.perf_counter()
         key = entry_key(kernel, variant)
         symbol, code = build.compile_entry(kernel, variant)
@@ -162,6 +168,89 @@ def _compile(folder, missing, progress=None, notice=True):
         STATS["compile_seconds"] += time.perf_counter() - start
         if progress is not None:
             progress(key, True)
+
+
+def _cores():
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
+# A compile worker: a Python process of its own (nothing of the caller's program is
+# imported in it, unlike a multiprocessing child) that compiles the entries named on its
+# command line into the folder given, in order.
+_WORKER = ("import json, sys; from {package} import native; "
+           "native._compile_here(sys.argv[1], json.loads(sys.argv[2]), int(sys.argv[3]))")
+
+
+def _shares(missing, workers):
+    """``missing`` dealt to ``workers`` (at least one) processes, the longest entries
+    first, each to the process with the least estimated time so far."""
+    shares = [[] for _ in range(max(workers, 1))]
+    loads = [0.0] * len(shares)
+    for kernel, variant in sorted(missing, key=lambda e: -COMPILE_SECONDS.get(e[0], 1.0)):
+        i = loads.index(min(loads))
+        shares[i].append((kernel, variant))
+        loads[i] += COMPILE_SECONDS.get(kernel, 1.0)
+    return shares
+
+
+def _compile_in_processes(folder, missing, shares, progress=None):
+    """Compile ``missing`` in one process per share (see _shares), all at once: Numba
+    compiles on one core.  The caller holds the cache's lock.  Returns the entries still
+    missing (a worker failed), for the caller to compile here, where an error shows as
+    it is."""
+    import subprocess
+
+    start = time.perf_counter()
+    code = _WORKER.format(package=__package__)
+    procs = [subprocess.Popen([sys.executable, "-c", code, str(folder),
+                               json.dumps([(k, list(v)) for k, v in share]),
+                               str(os.getpid())],
+                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL) for share in shares]
+    reported = set()
+    try:
+        while True:
+            running = [p for p in procs if p.poll() is None]
+            for kernel, variant in missing:  # progress as each entry lands
+                key = entry_key(kernel, variant)
+                if key not in reported and _stored(folder, key):
+                    reported.add(key)
+                    if progress is not None:
+                        progress(key, True)
+            if not running:
+                break
+            time.sleep(0.05)
+    finally:
+        for proc in procs:  # a Ctrl-C here stops the workers too
+            if proc.poll() is None:
+                proc.kill()
+            proc.wait()
+    left = [(k, v) for k, v in missing if not _stored(folder, entry_key(k, v))]
+    STATS["compiled"] += len(missing) - len(left)
+    STATS["compile_seconds"] += time.perf_counter() - start
+    return left
+
+
+def _compile_here(folder, share, parent):
+    """A compile worker's job: compile each (kernel, variant) of ``share`` into
+    ``folder``; stop if the process ``parent`` that started it dies (it holds the lock:
+    without it, the next holder may be compiling the same entries)."""
+    try:  # Linux: be killed with the parent (PR_SET_PDEATHSIG = 1, SIGKILL = 9)
+        ctypes.CDLL(None, use_errno=True).prctl(1, 9)
+    except (AttributeError, OSError):
+        pass
+    if os.getppid() != parent:  # it died before that took hold
+        return
+    from .jit import build
+
+    for kernel, variant in share:
+        variant = tuple(variant)
+        symbol, code = build.compile_entry(kernel, variant)
+        _store(Path(folder), entry_key(kernel, variant), symbol, code)
 
 
 # ---------------------------------------------------------------------------- the specs

@@ -30,3 +30,44 @@ def test_a_second_process_loads_without_compiling_or_numba(tmp_path):
     second, quiet = probe(tmp_path)
     assert second["compiled"] == 0 and second["loaded"] == 1, second
     assert not second["numba"] and "compiling" not in quiet
+
+
+TWO_ENTRIES = """
+import json, sys, numpy as np
+from csw import kernels
+if sys.argv[1] == "broken":  # every compile worker fails at once
+    kernels.native._WORKER = "import sys; sys.exit(3)"
+rng = np.random.default_rng(5)
+left, right = (rng.integers(0, 256, (12, 20), dtype=np.uint8) for _ in range(2))
+wanted = [e for cost in ("sad", "census") for e in kernels.entries(
+    "window", cost, np.dtype(np.uint8), 3, 5, False, False, False)]
+kernels.native.ensure(wanted)  # three entries, missing together
+maps = [kernels.match(left, right, engine="window", window=3, dmin=0, dmax=4, cost=cost,
+                      census_window=5).disparity.tolist() for cost in ("sad", "census")]
+print(json.dumps(dict(kernels.native.STATS, numba="numba" in sys.modules, maps=maps)))
+"""
+
+
+def two_entries(cache, mode):
+    env = dict(os.environ, CSW_KERNEL_CACHE=str(cache))
+    out = subprocess.run([sys.executable, "-c", TWO_ENTRIES, mode], capture_output=True,
+                         text=True, timeout=600, check=True, env=env)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_missing_entries_compile_in_worker_processes_or_here_if_they_fail(tmp_path):
+    """With two cores or more, missing entries compile in worker processes (this one
+    never imports Numba); when the workers fail, this process compiles them itself, and
+    the maps are the same either way."""
+    from csw.kernels import native
+
+    workers = two_entries(tmp_path / "workers", "workers")
+    broken = two_entries(tmp_path / "broken", "broken")
+    assert workers["compiled"] == 3 and broken["compiled"] == 3
+    assert broken["numba"]  # compiled here, after the workers failed
+    if native._cores() > 1:
+        assert not workers["numba"]
+    assert workers["maps"] == broken["maps"]
+    for cache in ("workers", "broken"):
+        assert [p.name for p in (tmp_path / cache).rglob("*.tmp")] == []
+        assert len(list((tmp_path / cache).rglob("*.json"))) == 3
