@@ -43,7 +43,7 @@ def entries(engine, cost, pixels, window, census_window, csw, right_map, extras,
     census transform, if any, and its engine's variant."""
     from . import census, fast
     from . import window as window_engine
-    from .contract import COSTS, SHD
+    from .contract import SHD
 
     code = COSTS[cost]
     compared = pixels

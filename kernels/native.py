@@ -148,7 +148,9 @@ def missing_seconds(wanted):
 
 
 def _compile(folder, missing, progress=None, notice=True):
-    shares = _shares(missing, min(len(missing), _cores()))
+    from .runtime import cores
+
+    shares = _shares(missing, min(len(missing), cores()))
     estimate = START_SECONDS + max(sum(COMPILE_SECONDS.get(k, 1.0) for k, _ in share)
                                    for share in shares)
     if notice and estimate >= 1.0 and not _NOTICE["shown"]:
@@ -168,14 +170,6 @@ def _compile(folder, missing, progress=None, notice=True):
         STATS["compile_seconds"] += time.perf_counter() - start
         if progress is not None:
             progress(key, True)
-
-
-def _cores():
-    """The cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:
-        return os.cpu_count() or 1
 
 
 # A compile worker: a Python process of its own (nothing of the caller's program is

@@ -13,16 +13,21 @@ import numpy as np
 DIRECT_WORK = 50_000_000
 
 
-def max_threads():
-    """The threads csw may use: NUMBA_NUM_THREADS where set (Dask workers set it to share
-    the cores between them), else the cores this process may run on."""
-    value = os.environ.get("NUMBA_NUM_THREADS")
-    if value:
-        return max(1, int(value))
+def cores():
+    """The cores this process may run on."""
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not Linux
         return os.cpu_count() or 1
+
+
+def max_threads():
+    """The threads csw may use: NUMBA_NUM_THREADS where set (Dask workers set it to share
+    the cores between them), else cores()."""
+    value = os.environ.get("NUMBA_NUM_THREADS")
+    if value:
+        return max(1, int(value))
+    return cores()
 
 
 _DEFAULT = {"threads": None}

@@ -59,13 +59,13 @@ def test_missing_entries_compile_in_worker_processes_or_here_if_they_fail(tmp_pa
     """With two cores or more, missing entries compile in worker processes (this one
     never imports Numba); when the workers fail, this process compiles them itself, and
     the maps are the same either way."""
-    from csw.kernels import native
+    from csw.kernels.runtime import cores
 
     workers = two_entries(tmp_path / "workers", "workers")
     broken = two_entries(tmp_path / "broken", "broken")
     assert workers["compiled"] == 3 and broken["compiled"] == 3
     assert broken["numba"]  # compiled here, after the workers failed
-    if native._cores() > 1:
+    if cores() > 1:
         assert not workers["numba"]
     assert workers["maps"] == broken["maps"]
     for cache in ("workers", "broken"):
