@@ -4,8 +4,8 @@ The pair is shrunk by box averaging (a power-of-two factor, at least 2, that bri
 width to SMALL_WIDTH or less), the small pair is matched with the accurate pipeline
 (census, the left-right check, speckle removal: only confident disparities survive) over
 the widest sensible range, keeping distinct matches only, and the robust extremes of
-what it found (the LOW and HIGH
-percentiles) are scaled back with a margin.  It costs a few percent of the full match.
+what it found (the LOW and HIGH percentiles) are scaled back with a margin.  It costs a
+few percent of the full match.
 """
 
 import math

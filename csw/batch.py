@@ -11,13 +11,16 @@ from pathlib import Path
 
 from . import calib as calib_module
 from .executor import progress_bar, run_tasks
-from .geometry import CLOUD_SUFFIXES, DEPTH_SUFFIXES
+from .files import COMPANIONS
 from .geometry import writers as three_d_writers
 from .io.atomic import atomic_write, atomic_write_all, remove_temporaries
 from .io.formats import check_range, disparity_writer, suffixes
 from .io.images import ImageError, read_colour, read_image
 from .params import OptionError, resolve
 from .whole import match
+
+# Each pair's 3-D outputs are NAME + this + their format: NAME.depth.pfm, NAME.ply ...
+PER_PAIR_INFIX = {"depth": ".depth", "cloud": "", "depth_preview": ".depth"}
 
 
 @dataclass(frozen=True)
@@ -174,11 +177,8 @@ def run_job(task, calib=None, three_d=None, **match_options):
             raise ValueError(job.problem)
         left, right = read_image(job.left), read_image(job.right)
         calibration = calib_module.resolve(calib, job.left)
-        range_source = "given" if "dmax" in match_options else "default"
-        if "dmax" not in match_options and calibration is not None and calibration.ndisp:
-            match_options = dict(match_options,
-                                 dmax=min(calibration.ndisp - 1, left.shape[1] - 1))
-            range_source = f"ndisp of {calibration.source}"
+        match_options, range_source = calib_module.with_range(calibration, match_options,
+                                                               left.shape[1])
         wanted = [role for role in ("depth", "cloud", "depth_preview") if role in outputs]
         if wanted and calibration is None:
             raise ValueError(f"no calibration for the {wanted[0].replace('_', ' ')}: give "
@@ -199,7 +199,7 @@ def run_job(task, calib=None, three_d=None, **match_options):
                 match_seconds=result.seconds, invalid=100.0 * result.invalid_share,
                 work_saved=100.0 * result.work_saved, range=[s["dmin"], s["dmax"]],
                 range_source=s["range_source"] if s["range_source"] == "auto"
-                else range_source,
+                else range_source,  # "auto" also when only dmin was auto
                 calibration=calibration.as_dict() if calibration else None,
                 **{role: str(path) for role, path in outputs.items() if role != "map"})
 
@@ -259,17 +259,15 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         raise OptionError("dmax", str(exc)) from None
     check_names(jobs)
     summary = Path(summary) if summary else out_dir / "summary.json"
-    extras = {}
-    for role, value, name in (("depth", depth, "{}.depth{}"), ("cloud", cloud, "{}{}"),
-                              ("depth_preview", depth_preview, "{}.depth{}")):
+    extras = {}  # role -> the file name pattern of each pair's output
+    for role, value in (("depth", depth), ("cloud", cloud), ("depth_preview", depth_preview)):
         if value is not None:
             extra = str(value) if str(value).startswith(".") else Path(value).suffix
-            allowed = {"depth": DEPTH_SUFFIXES, "cloud": CLOUD_SUFFIXES,
-                       "depth_preview": (".png",)}[role]
-            if extra.lower() not in allowed:
+            if extra.lower() not in COMPANIONS[role]:
                 raise OptionError(role, f"many pairs take the {role.replace('_', ' ')}'s "
-                                        f"format, one of {', '.join(allowed)}; got {value!r}")
-            extras[role] = name.replace("{}", "{name}", 1).replace("{}", extra)
+                                        f"format, one of {', '.join(COMPANIONS[role])}; got "
+                                        f"{value!r}")
+            extras[role] = "{name}" + PER_PAIR_INFIX[role] + extra
     if isinstance(calib, (str, Path)):
         calib = calib_module.read_calibration(calib)  # once, and a bad one fails first
     outputs = [{"map": out_dir / f"{job.name}{suffix}",

@@ -79,14 +79,12 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
         An input that can't be read (its ``option`` names it: "left" or "right").
     """
     calibration = calib_module.resolve(calib, left)
+    width = None
     if calibration is not None:
-        calibration.check_size(open_source(left, "left", probe=False).shape)
-    range_note = ("given" if "dmax" in options else "default") \
-        if options.get("dmax") != "auto" else "auto"
-    if "dmax" not in options and calibration is not None and calibration.ndisp:
-        width = open_source(left, "left", probe=False).shape[1]
-        options = dict(options, dmax=min(calibration.ndisp - 1, width - 1))
-        range_note = f"ndisp of {calibration.source}"
+        shape = open_source(left, "left", probe=False).shape
+        calibration.check_size(shape)
+        width = shape[1]
+    options, range_note = calib_module.with_range(calibration, options, width)
     opts = resolve(**options)
     outputs = {"output": output, "confidence": confidence, "preview": preview,
                "cost_map": cost_map, "depth": depth, "cloud": cloud,

@@ -5,6 +5,8 @@ OpenCV's reprojection, [X Y Z W] = Q [x y d 1] (x right, y down, z forward, in t
 camera's frame), so they equal cv2.reprojectImageTo3D's for the same Q.
 """
 
+from pathlib import Path
+
 import numpy as np
 
 from .io.formats import as_float_disparity
@@ -145,20 +147,24 @@ def writers(disparity, calib, depth_path=None, cloud_path=None, preview_path=Non
     """(path, write_to) for each 3-D output asked for, to be written together with the
     map (csw.io.atomic.atomic_write_all): the depth map (DEPTH_SUFFIXES), its preview
     (PNG) and the point cloud (PLY, coloured from ``image`` where given)."""
-    from pathlib import Path
-
-    from .io.formats import float_map_writer, png_writer
-
     items = []
     if depth_path is not None or preview_path is not None:
-        z = depth(disparity, calib, units)
-        if depth_path is not None:
-            items.append((Path(depth_path), float_map_writer(depth_path, z)))
-        if preview_path is not None:
-            items.append((Path(preview_path), png_writer(preview(z))))
+        items += _depth_writers(depth(disparity, calib, units), depth_path, preview_path)
     if cloud_path is not None:
         points, colours = point_cloud(disparity, calib, image, max_depth, units)
         items.append((Path(cloud_path), ply_writer(points, colours)))
+    return items
+
+
+def _depth_writers(z, depth_path, preview_path):
+    """(path, write_to) of the depth map z and of its preview, where asked for."""
+    from .io.formats import float_map_writer, png_writer
+
+    items = []
+    if depth_path is not None:
+        items.append((Path(depth_path), float_map_writer(depth_path, z)))
+    if preview_path is not None:
+        items.append((Path(preview_path), png_writer(preview(z))))
     return items
 
 
@@ -168,21 +174,19 @@ def depth_file(disparity, output, calib, units=None, preview_path=None):
     from .io.atomic import atomic_write_all
     from .io.formats import read_disparity
 
-    disp = read_disparity(disparity)
-    items = writers(disp, calib, output, None, preview_path, units=units)
-    atomic_write_all(items)
-    return depth(disp, calib, units)
+    z = depth(read_disparity(disparity), calib, units)
+    atomic_write_all(_depth_writers(z, output, preview_path))
+    return z
 
 
 def cloud_file(disparity, output, calib, image=None, max_depth=None, units=None):
     """Read a disparity map file (and the left image, for colours), write the point cloud
     as binary PLY, atomically; returns the number of points."""
-    from .io.atomic import atomic_write
     from .io.formats import read_disparity
     from .io.images import read_colour
 
     disp = read_disparity(disparity)
     image = read_colour(image) if image is not None else None
     points, colours = point_cloud(disp, calib, image, max_depth, units)
-    atomic_write(output, ply_writer(points, colours))
+    write_ply(output, points, colours)
     return len(points)

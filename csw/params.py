@@ -268,6 +268,14 @@ def stages(opts):
     return {k: opts[k] for k in OFF}
 
 
+def cost_stages(stages):
+    """Only the stages that shape the costs (the pre-filter, the census window), the rest
+    off: what tau auto's sample of plain matching runs with, since the checks and the
+    filters don't change the minimum costs."""
+    return dict(OFF, **{k: stages[k] for k in ("prefilter", "prefilter_cap",
+                                               "census_window")})
+
+
 def kernel_args(opts):
     """The kernels' keyword arguments for a resolved option set."""
     return dict(engine=opts["engine"], window=opts["window"], dmin=opts["dmin"],

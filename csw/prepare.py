@@ -36,14 +36,16 @@ def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None
     """Prepare a match of a pair of ``shape`` (H, W) and ``dtype``.
 
     opts: the resolved options (csw.params.resolve: the callers resolve them before
-    reading any pixel, so a bad option fails first).  right: (shape, dtype)
-    of the right image, checked against the left's.  sample_min_cost(args, stages, rows):
-    plain matching's min-cost rows (int64 (n, W)) for the rows tau auto samples
-    (csw.tau.sample_rows), matched with ``stages``; called only when tau resolves to auto.
+    reading any pixel, so a bad option fails first).
+    right: (shape, dtype) of the right image, checked against the left's.
+    sample_min_cost(args, stages, rows): plain matching's min-cost rows (int64 (n, W))
+        for the rows tau auto samples (csw.tau.sample_rows), matched with ``stages``;
+        called only when tau resolves to auto.
     make_plan(opts): how the match will run (csw.tiled's stripes), made once the pair is
-    checked and its range known, before anything compiles; its result is
-    ``Prepared.plan``.  confidence:
-    the run computes the confidence map (its kernels make the second-best costs).
+        checked and its range known, before anything compiles; its result is
+        ``Prepared.plan``.
+    confidence: the run computes the confidence map (its kernels make the second-best
+        costs).
     shrunk(f): the pair shrunk f times (csw.autorange.shrink), for a range "auto".
     Raises ValueError, saying how to fix it, on any bad option or pair.
     """
@@ -74,9 +76,7 @@ def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None
     args = params.kernel_args(opts)
     tau, source = -1.0, "off"
     if opts["csw"]:
-        # Only the stages that shape the costs: the checks and filters don't change m.
-        shaping = dict(params.OFF, **{k: stages[k] for k in
-                                      ("prefilter", "prefilter_cap", "census_window")})
+        shaping = params.cost_stages(stages)
         tau, source = resolve_tau(
             opts["tau"], opts["csw_rule"],
             plain_min_cost=lambda: sample_min_cost(args, shaping, sample_rows(height)))
@@ -93,8 +93,7 @@ def load_kernels(opts, stages, dtype, confidence=False):
     args = params.kernel_args(opts)
     wanted = entries(dict(args, csw=opts["csw"]), stages, dtype, confidence)
     if opts["csw"]:  # tau's sample: plain matching with the stages that shape the costs
-        wanted += entries(dict(args, csw=False), dict(params.OFF, census_window=stages[
-            "census_window"]), dtype)
+        wanted += entries(dict(args, csw=False), params.cost_stages(stages), dtype)
     return kernels.native.ensure(wanted)
 
 
@@ -110,8 +109,8 @@ def preset_entries(presets=None):
                 stages = params.stages(opts)
                 wanted += entries(args, stages, np.dtype(dtype))
                 if csw:  # tau auto's plain sample
-                    wanted += entries(dict(args, csw=False), dict(
-                        params.OFF, census_window=stages["census_window"]), np.dtype(dtype))
+                    wanted += entries(dict(args, csw=False), params.cost_stages(stages),
+                                      np.dtype(dtype))
     return list(dict.fromkeys((k, tuple(v)) for k, v in wanted))
 
 
