@@ -208,16 +208,19 @@ def pairs(datasets, dataset_dirs, data_dir, download, verify=True):
             yield pair
 
 
-def calibration_options(command):
-    """--calib FILE, or --focal/--baseline/--cx/--cy/--doffs, and --units: the pair's
-    calibration (csw.calib.from_options turns them into one)."""
+def calibration_options(beside_left=False):
+    """A decorator adding --calib FILE, or --focal/--baseline/--cx/--cy/--doffs, and
+    --units: the pair's calibration (csw.calib.from_options turns them into one).
+    beside_left: the command falls back on the calib.txt beside its LEFT image, and its
+    help says so."""
     from csw.calib import UNITS
 
+    fallback = " [default: the calib.txt beside LEFT, if any]" if beside_left else ""
     decorators = [
         click.option("--calib", type=click.Path(dir_okay=False),
                      help="The pair's calibration: a Middlebury calib.txt, a KITTI calib "
                           "(P2/P3 or P_rect_02/03), an OpenCV YAML/XML with Q, or a 4x4 "
-                          "Q in .npy [default: the calib.txt beside LEFT, if any]."),
+                          f"Q in .npy{fallback}."),
         click.option("--focal", type=float, help="Or by hand: the focal length (pixels)."),
         click.option("--baseline", type=float,
                      help="By hand: the baseline (depth comes out in its units)."),
@@ -232,9 +235,11 @@ def calibration_options(command):
                      help="Depth and points in these units [default: the calibration's: "
                           "mm for Middlebury, m for KITTI]."),
     ]
-    for decorate in reversed(decorators):
-        command = decorate(command)
-    return command
+    def decorate_all(command):
+        for decorate in reversed(decorators):
+            command = decorate(command)
+        return command
+    return decorate_all
 
 
 def calibration(ctx_params):

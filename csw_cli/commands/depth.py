@@ -6,11 +6,19 @@ import click
 from .. import options as opt
 
 
+def from_disparity(output_help):
+    """What csw depth and csw cloud both take: the disparity map, the output, and the
+    calibration."""
+    def decorate(function):
+        function = opt.calibration_options()(function)
+        function = click.option("--output", "-o", required=True,
+                                type=click.Path(dir_okay=False), help=output_help)(function)
+        return click.argument("disparity", type=click.Path(dir_okay=False))(function)
+    return decorate
+
+
 @click.command()
-@click.argument("disparity", type=click.Path(dir_okay=False))
-@click.option("--output", "-o", required=True, type=click.Path(dir_okay=False),
-              help="The depth map: .pfm or .npy (inf where unknown), .tif (NaN).")
-@opt.calibration_options
+@from_disparity("The depth map: .pfm or .npy (inf where unknown), .tif (NaN).")
 @click.option("--preview", type=click.Path(dir_okay=False),
               help="Also write a colour PNG of the depth (near warm, far cool), with its "
                    "range on a bar below.")
@@ -41,10 +49,7 @@ def depth(ctx, disparity, output, preview, **_):
 
 
 @click.command()
-@click.argument("disparity", type=click.Path(dir_okay=False))
-@click.option("--output", "-o", required=True, type=click.Path(dir_okay=False),
-              help="The point cloud: binary little-endian PLY.")
-@opt.calibration_options
+@from_disparity("The point cloud: binary little-endian PLY.")
 @click.option("--image", type=click.Path(dir_okay=False),
               help="The left image, to colour the points.")
 @click.option("--max-depth", type=click.FloatRange(min=0, min_open=True),

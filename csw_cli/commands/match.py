@@ -106,7 +106,7 @@ def memory_size(ctx, param, value):
 @click.option("--confidence", type=click.Path(dir_okay=False),
               help="Also write the confidence (0..1: how much the best cost beats the "
                    "second best) as PFM (or .npy, .tif, .zarr).")
-@opt.calibration_options
+@opt.calibration_options(beside_left=True)
 @click.option("--depth", type=click.Path(dir_okay=False),
               help="Also write the depth map (.pfm, .npy, .tif), from the calibration. "
                    "Many pairs: the format, e.g. .pfm: NAME.depth.pfm beside each map.")
