@@ -183,10 +183,15 @@ def cloud_file(disparity, output, calib, image=None, max_depth=None, units=None)
     """Read a disparity map file (and the left image, for colours), write the point cloud
     as binary PLY, atomically; returns the number of points."""
     from .io.formats import read_disparity
-    from .io.images import read_colour
+    from .io.images import ImageError, read_colour
 
     disp = read_disparity(disparity)
-    image = read_colour(image) if image is not None else None
+    if image is not None:
+        try:
+            image = read_colour(image)
+        except ImageError as exc:
+            exc.option = "image"  # the error is the image's, not the disparity map's
+            raise
     points, colours = point_cloud(disp, calib, image, max_depth, units)
     write_ply(output, points, colours)
     return len(points)

@@ -132,3 +132,13 @@ def test_a_negative_dmin_on_the_command_line(scene, tmp_path):
     result = invoke("match", scene / "left.png", scene / "right.png", "-o", tmp_path / "d.pfm",
                     "--dmin", -4, "--dmax", 24, "--preset", "raw")
     assert result.exit_code == 0 and " d -4..24 " in result.output, result.output
+
+
+def test_a_bad_image_for_the_cloud_is_named_as_the_image(scene, tmp_path):
+    (tmp_path / "broken.png").write_bytes((scene / "left.png").read_bytes()[:200])
+    result = invoke("cloud", scene / "gt.pfm", "--focal", 120, "--baseline", 0.1,
+                    "--image", tmp_path / "broken.png", "-o", tmp_path / "c.ply")
+    assert result.exit_code == 2
+    error = result.output.splitlines()[-1]
+    assert "Invalid value for --image" in error, result.output
+    assert not (tmp_path / "c.ply").exists()
