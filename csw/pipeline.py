@@ -156,14 +156,19 @@ def match_rows(left, right, kernel_args, stages, confidence=False):
     (disparity float32 (H, W) NaN invalid, confidence float32 (H, W), MatchResult); row y
     depends only on input rows y +- :func:`row_overlap`."""
     a, b = prefiltered(left, right, stages)
+    # Scratch that never leaves this call comes from the thread's workspace: census
+    # codes, the right map, the masks (kernels/workspace.py says why).
+    workspace = kernels.workspace.for_this_thread()
     raw = kernels.match(a, b, census_window=stages["census_window"],
                         extras=confidence or needs_extras(stages),
-                        right_map=stages["lr_check"] is not None, **kernel_args)
+                        right_map=stages["lr_check"] is not None, workspace=workspace,
+                        **kernel_args)
     invalid = kernels.invalid(kernel_args["dmin"])
     valid = raw.disparity != invalid
     if stages["lr_check"] is not None:
         valid &= lr_consistent(raw.disparity, raw.right_disparity, stages["lr_check"],
-                               invalid)
+                               invalid, workspace)
+        raw.right_disparity = None  # the workspace's: not to be kept
     if stages["uniqueness_ratio"] is not None:
         valid &= distinct(raw.min_cost, raw.second_cost, stages["uniqueness_ratio"])
     if stages["texture_threshold"] is not None:
@@ -190,8 +195,8 @@ def filter_map(disp, conf, stages):
     (disparity, confidence), float32 (H, W); ``disp`` may be changed in place, and a
     ``conf`` of None stays None."""
     if stages["speckle_size"] > 0:
-        disp[speckle_mask(disp, int(stages["speckle_size"]),
-                          float(stages["speckle_range"]))] = np.nan
+        disp[speckle_mask(disp, int(stages["speckle_size"]), float(stages["speckle_range"]),
+                          kernels.workspace.for_this_thread())] = np.nan
     if stages["median"]:
         disp = median_valid(disp, int(stages["median"]))
     if conf is not None and not is_row_local(stages):

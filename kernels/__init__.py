@@ -11,7 +11,7 @@ compiled once per CPU and loaded without Numba (``native``).  Nothing here impor
 until something must be compiled.
 """
 
-from . import contract, native
+from . import contract, native, workspace  # noqa: F401 (kernels.workspace, for callers)
 from .contract import (
     COSTS,
     ENGINE_NAMES,

@@ -22,17 +22,19 @@ def variant(pixels, size):
     return (dtype_name(pixels), dtype_name(census_dtype(size)))
 
 
-def census_transform(image, size, threads=None, pad=0, reverse=False):
+def census_transform(image, size, threads=None, pad=0, reverse=False, out=None):
     """Census codes of a uint8/uint16 (H, W) image with a size x size window (odd, 3..7):
     an (H, W) array of the narrowest unsigned type holding size*size - 1 bits.
 
     pad, reverse: the codes edge-padded by ``pad`` on every side, (H + 2 pad, W + 2 pad),
     and with reverse, their columns reversed: the layouts the engines read, written in
-    place rather than copied."""
+    place rather than copied.  out: the array to write them into (of that shape and
+    type, C-contiguous), else a new one."""
     image = np.ascontiguousarray(image)
     padded = np.pad(image, size // 2, mode="edge")
     height, width = image.shape
-    codes = np.empty((height + 2 * pad, width + 2 * pad), census_dtype(size))
+    shape = (height + 2 * pad, width + 2 * pad)
+    codes = np.empty(shape, census_dtype(size)) if out is None else out
     run = native.entry("census", variant(image.dtype, size))
     n_threads = runtime.thread_count(threads)
     work = height * width * size * size

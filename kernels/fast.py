@@ -32,10 +32,12 @@ from .contract import (
     SHD,
     SSD,
     candidate_count,
+    census_dtype,
     dtype_name,
     validate,
 )
 from .window import extra_maps, pad_edge, result
+from .workspace import empty
 
 COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
 
@@ -87,11 +89,13 @@ def stripe_bounds(height, window, threads, rows):
 
 def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                rule="literal", uniqueness=None, slack=None, rows=None, threads=None,
-               census_window=DEFAULT_CENSUS_WINDOW, extras=False, right_map=False):
+               census_window=DEFAULT_CENSUS_WINDOW, extras=False, right_map=False,
+               workspace=None):
     """Match a rectified pair with running sums (same contract as match_window).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
     rows: optional ascending row indices; the maps are then (n, W) for those rows.
+    workspace: a kernels.workspace.Workspace for the census codes and the right map.
     Other options as for match_window.
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     """
@@ -109,8 +113,11 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     h = s.window // 2
     shift = max(0, -s.dmin)  # a negative range reaches right pixels beyond the image
     if s.cost == CENSUS:  # the codes, written padded (and reversed) by the transform
-        left_p = census_transform(left, census_window, threads, pad=h)
-        right_rev = census_transform(right, census_window, threads, pad=h, reverse=True)
+        shape, codes = (height + 2 * h, width + 2 * h), census_dtype(census_window)
+        left_p = census_transform(left, census_window, threads, pad=h,
+                                  out=empty(workspace, "census-left", shape, codes))
+        right_rev = census_transform(right, census_window, threads, pad=h, reverse=True,
+                                     out=empty(workspace, "census-right", shape, codes))
         s = s._replace(cost=SHD)
     else:
         left_p = pad_edge(left, h, left.dtype)
@@ -123,7 +130,7 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                                        s.extras, s.dmin))
     disp = np.empty((height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
-    maps = extra_maps(disp.shape, s)
+    maps = extra_maps(disp.shape, s, workspace)
     evaluated = np.zeros(height, np.int64)
     work = rows.size * width * ndisp
     if work < runtime.DIRECT_WORK:

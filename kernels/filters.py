@@ -11,6 +11,7 @@ validates and calls them.
 import numpy as np
 
 from . import native, runtime
+from .workspace import empty
 
 
 def _by_rows(kind, arrays, height, extra=(), scratch=None):
@@ -27,26 +28,30 @@ def _by_rows(kind, arrays, height, extra=(), scratch=None):
     runtime.run_stripes(stripe, count, count, work)
 
 
-def lr_consistent(disp, right_disp, limit, invalid=-1):
+def lr_consistent(disp, right_disp, limit, invalid=-1, workspace=None):
     """bool (H, W): d = disp[y, x] is valid (not ``invalid``, the maps' invalid value:
     see contract.invalid) and its right pixel's own match, right_disp[y, x - d]
     (``invalid``: none), differs from it by at most ``limit``.
 
-    disp, right_disp: int32 (H, W)."""
+    disp, right_disp: int32 (H, W).  workspace: a kernels.workspace.Workspace to take the
+    result from (valid until its next check), else a new array."""
     disp, right_disp = np.ascontiguousarray(disp), np.ascontiguousarray(right_disp)
-    valid = np.empty(disp.shape, np.uint8)
+    valid = empty(workspace, "lr-valid", disp.shape, np.uint8)
     _by_rows("lr", [disp, right_disp, valid], disp.shape[0], [int(limit), int(invalid)])
     return valid.view(np.bool_)
 
 
-def speckle_mask(disp, max_size, max_diff):
+def speckle_mask(disp, max_size, max_diff, workspace=None):
     """bool (H, W): True for valid pixels in regions of fewer than ``max_size`` pixels,
     where a region is a 4-connected set of valid pixels whose neighbours differ by at
     most ``max_diff``.  Scratch: a union-find forest over the rows' runs (its H * W
-    entries are reserved, and only as many as there are runs are touched)."""
+    entries are reserved, and only as many as there are runs are touched).
+    workspace: a kernels.workspace.Workspace for the scratch and the result (valid until
+    its next speckle mask), else new arrays."""
     disp = np.ascontiguousarray(disp, np.float32)
-    small = np.empty(disp.shape, np.uint8)
-    forest = [np.empty(disp.size, np.int32) for _ in range(2)]
+    small = empty(workspace, "speckle-mask", disp.shape, np.uint8)
+    forest = [empty(workspace, f"speckle-forest-{i}", (disp.size,), np.int32)
+              for i in range(2)]
     rows = [np.empty(disp.shape[1], np.int32) for _ in range(2)]
     native.entry("filters", ("speckle",))([disp, small, *forest, *rows,
                                            np.array([max_diff], np.float64)],

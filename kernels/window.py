@@ -24,6 +24,7 @@ from .contract import (
     invalid,
     validate,
 )
+from .workspace import empty
 
 COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
 
@@ -35,13 +36,16 @@ def pad_edge(image, h, dtype=np.uint16):
     return np.pad(image.astype(dtype, copy=False), h, mode="edge")
 
 
-def extra_maps(shape, s):
+def extra_maps(shape, s, workspace=None):
     """(second, prev, next, right) outputs: full maps where asked for (s.extras for the
     first three, s.right_map for the last), else 1-row dummies the workers never write
-    (the entries take arrays of the right type either way)."""
+    (the entries take arrays of the right type either way).  The right map is taken from
+    ``workspace`` when one is given (see match_fast)."""
     rows = shape[0] if s.extras else 1
     costs = tuple(np.full((rows, shape[1]), -1, np.int64) for _ in range(3))
-    right = np.full((shape[0] if s.right_map else 1, shape[1]), invalid(s.dmin), np.int32)
+    right = empty(workspace, "right-disparity", (shape[0] if s.right_map else 1, shape[1]),
+                  np.int32)
+    right.fill(invalid(s.dmin))
     return (*costs, right)
 
 
@@ -71,7 +75,8 @@ def entries(cost, pixels, window, csw, right_map, extras, dmin=0):
 
 def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                  rule="literal", uniqueness=None, slack=None, rows=None, threads=None,
-                 census_window=DEFAULT_CENSUS_WINDOW, extras=False, right_map=False):
+                 census_window=DEFAULT_CENSUS_WINDOW, extras=False, right_map=False,
+                 workspace=None):
     """Match a rectified pair with full window sums (the contract: docs/engines.md).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
@@ -83,6 +88,8 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     rows: optional int64 (n,) ascending row indices; then the maps are (n, W).
     extras: also return the second-best and neighbour costs; right_map: the right image's
         map from the same costs (see MatchResult).
+    workspace: a kernels.workspace.Workspace to take the right map from; it is then
+        valid until the workspace's next match (for callers that use it at once).
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     Raises ValueError, with a message that says how to fix it, on bad input.
     """
@@ -102,7 +109,7 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     ndisp = s.dmax - s.dmin + 1
     disp = np.empty((rows.size, width), np.int32)
     min_cost = np.empty((rows.size, width), np.int64)
-    maps = extra_maps(disp.shape, s)
+    maps = extra_maps(disp.shape, s, workspace)
     evaluated = np.zeros(rows.size, np.int64)
     work = rows.size * width * ndisp * s.window ** 2
     if work < runtime.DIRECT_WORK:

@@ -1,0 +1,67 @@
+"""The thread's workspace: buffers kept between matches, never shared between threads,
+never kept past the limit, and never changing a result."""
+
+import threading
+
+import numpy as np
+
+import csw
+from csw import kernels
+from csw.kernels.workspace import Workspace, for_this_thread
+
+
+def test_a_role_reuses_its_buffer_and_grows_it():
+    ws = Workspace(limit=1 << 20)
+    a = ws.empty("codes", (10, 20), np.uint64)
+    b = ws.empty("codes", (5, 4), np.int32)
+    assert a.shape == (10, 20) and b.shape == (5, 4) and b.dtype == np.int32
+    assert np.shares_memory(a, b)
+    assert not np.shares_memory(a, ws.empty("mask", (10, 20), np.uint8))
+    c = ws.empty("codes", (30, 30), np.uint64)  # larger: a new buffer replaces the old
+    assert c.shape == (30, 30) and not np.shares_memory(a, c)
+    assert ws.held() == 30 * 30 * 8 + 10 * 20
+
+
+def test_past_the_limit_arrays_are_fresh_and_not_kept():
+    ws = Workspace(limit=1000)
+    kept = ws.empty("small", (100,), np.uint8)
+    big = ws.empty("big", (200,), np.uint64)  # 1600 bytes: over the limit
+    assert big.shape == (200,) and ws.held() == 100
+    again = ws.empty("big", (200,), np.uint64)
+    assert not np.shares_memory(big, again)
+    assert np.shares_memory(kept, ws.empty("small", (50,), np.uint8))
+
+
+def test_each_thread_has_its_own_workspace():
+    mine = for_this_thread()
+    assert for_this_thread() is mine
+    theirs = []
+    thread = threading.Thread(target=lambda: theirs.append(for_this_thread()))
+    thread.start()
+    thread.join()
+    assert theirs[0] is not mine
+
+
+def test_matches_through_the_workspace_equal_fresh_ones(small_scene):
+    left, right = small_scene[:2]
+    fresh = kernels.match(left, right, engine="fast", window=5, dmin=0, dmax=12,
+                          cost="census", right_map=True)
+    ws = Workspace()
+    for _ in range(2):  # the second run reuses the first one's buffers
+        got = kernels.match(left, right, engine="fast", window=5, dmin=0, dmax=12,
+                            cost="census", right_map=True, workspace=ws)
+        np.testing.assert_array_equal(got.disparity, fresh.disparity)
+        np.testing.assert_array_equal(got.right_disparity, fresh.right_disparity)
+    assert ws.held() > 0
+
+
+def test_results_of_csw_match_survive_the_next_match(small_scene):
+    """What csw.match returns is the caller's: a later match on the same thread, of
+    another size, leaves it as it was."""
+    left, right = small_scene[:2]
+    first = csw.match(left, right, dmax=12)
+    kept = first.disparity.copy(), first.min_cost.copy()
+    csw.match(left[:40, :50], right[:40, :50], dmax=8)
+    csw.match(right, left, dmax=12)
+    np.testing.assert_array_equal(first.disparity, kept[0])
+    np.testing.assert_array_equal(first.min_cost, kept[1])
