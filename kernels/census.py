@@ -42,7 +42,8 @@ def census_transform(image, size, threads=None, pad=0, reverse=False, out=None):
     edges = np.linspace(0, height, count + 1).round().astype(np.int64)
 
     def stripe(i, stop):
-        return run([padded, codes, np.empty(width, np.uint8)],
+        planes = np.empty(((size * size - 1) // 8, width), np.uint8)
+        return run([padded, codes, planes],
                    [size, edges[i], edges[i + 1], pad, int(reverse)])
 
     runtime.run_stripes(stripe, count, count, work)
