@@ -109,7 +109,7 @@ def confidence_map(min_cost, second, valid):
     return conf
 
 
-def run(left, right, kernel_args, stages, confidence=False):
+def run(left, right, kernel_args, stages, confidence=False, workspace=None):
     """Run the pipeline: (disparity float32 (H, W) NaN invalid, confidence float32 (H, W),
     the kernels' MatchResult).
 
@@ -118,9 +118,13 @@ def run(left, right, kernel_args, stages, confidence=False):
     resolved option set; see the module's docstring).
     confidence: compute the second-best costs for the confidence map even when no stage
     needs them (else it is 0 where they are not computed).
+    workspace: a kernels.workspace.Workspace for the scratch that never leaves the call
+        (census codes, the right map, the masks); whole-image matches pass their thread's,
+        so that repeated matches reuse it.  None: fresh arrays (the tiled bands, whose
+        memory is planned).
     """
-    disp, conf, raw = match_rows(left, right, kernel_args, stages, confidence)
-    disp, conf = filter_map(disp, conf, stages)
+    disp, conf, raw = match_rows(left, right, kernel_args, stages, confidence, workspace)
+    disp, conf = filter_map(disp, conf, stages, workspace)
     return disp, conf, raw
 
 
@@ -151,14 +155,11 @@ def is_row_local(stages):
     return filter_overlap(stages) == 0
 
 
-def match_rows(left, right, kernel_args, stages, confidence=False):
+def match_rows(left, right, kernel_args, stages, confidence=False, workspace=None):
     """The row-local stages: costs, CSW, the validity checks and subpixel.  Returns
     (disparity float32 (H, W) NaN invalid, confidence float32 (H, W), MatchResult); row y
-    depends only on input rows y +- :func:`row_overlap`."""
+    depends only on input rows y +- :func:`row_overlap`.  workspace: see :func:`run`."""
     a, b = prefiltered(left, right, stages)
-    # Scratch that never leaves this call comes from the thread's workspace: census
-    # codes, the right map, the masks (kernels/workspace.py says why).
-    workspace = kernels.workspace.for_this_thread()
     raw = kernels.match(a, b, census_window=stages["census_window"],
                         extras=confidence or needs_extras(stages),
                         right_map=stages["lr_check"] is not None, workspace=workspace,
@@ -168,7 +169,7 @@ def match_rows(left, right, kernel_args, stages, confidence=False):
     if stages["lr_check"] is not None:
         valid &= lr_consistent(raw.disparity, raw.right_disparity, stages["lr_check"],
                                invalid, workspace)
-        raw.right_disparity = None  # the workspace's: not to be kept
+        raw.right_disparity = None  # maybe the workspace's: not to be kept
     if stages["uniqueness_ratio"] is not None:
         valid &= distinct(raw.min_cost, raw.second_cost, stages["uniqueness_ratio"])
     if stages["texture_threshold"] is not None:
@@ -189,14 +190,14 @@ def match_rows(left, right, kernel_args, stages, confidence=False):
     return disp, conf, raw
 
 
-def filter_map(disp, conf, stages):
+def filter_map(disp, conf, stages, workspace=None):
     """The 2-D stages on :func:`match_rows`' maps: speckle removal, the median, then the
     background fill; the confidence is 0 wherever the filters left no disparity.  Returns
     (disparity, confidence), float32 (H, W); ``disp`` may be changed in place, and a
-    ``conf`` of None stays None."""
+    ``conf`` of None stays None.  workspace: see :func:`run`."""
     if stages["speckle_size"] > 0:
         disp[speckle_mask(disp, int(stages["speckle_size"]), float(stages["speckle_range"]),
-                          kernels.workspace.for_this_thread())] = np.nan
+                          workspace)] = np.nan
     if stages["median"]:
         disp = median_valid(disp, int(stages["median"]))
     if conf is not None and not is_row_local(stages):

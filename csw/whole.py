@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import kernels
 from .io.images import read_image, to_gray
 from .params import resolve
 from .pipeline import match_rows
@@ -138,8 +139,11 @@ def match(left, right, want_confidence=False, **options):
                     sample_min_cost=sample_min_cost, confidence=want_confidence,
                     shrunk=shrunk)
     start = time.perf_counter()
+    # This thread's workspace: a notebook's or a batch's repeated matches reuse their
+    # scratch instead of faulting it in again (kernels/workspace.py).
     disparity, confidence, raw = run_pipeline(left, right, ready.args, ready.stages,
-                                              confidence=want_confidence)
+                                              confidence=want_confidence,
+                                              workspace=kernels.workspace.for_this_thread())
     seconds = time.perf_counter() - start
     return Result(disparity, confidence, raw.min_cost, raw.evaluated, raw.candidates,
                   ready.settings, seconds, ready.compile_seconds)

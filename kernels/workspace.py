@@ -13,8 +13,12 @@ Rules that keep this safe:
   never share a buffer;
 - a role names one buffer, and an array taken for a role is valid until the next request
   for that role: callers take them for arrays that never leave the call;
-- a workspace keeps at most LIMIT bytes; requests beyond that get fresh arrays, so a
-  huge pair is not held in memory after its match.
+- a workspace keeps no buffer over LARGEST bytes and at most LIMIT bytes in all;
+  other requests get fresh arrays.  A large buffer's page faults cost little beside the
+  work done on it (its match searches as many disparities per pixel as a small one's),
+  and keeping it would hold memory after the match and raise the peak of the stages
+  after its own (the census codes, kept through the filters, raised the peak of a
+  2880 x 1988 match from 293 to 348 MB).
 """
 
 import math
@@ -22,15 +26,17 @@ import threading
 
 import numpy as np
 
-# What one thread keeps between matches: the scratch of a 1080p pair's census match.
+# What one thread keeps between matches: the scratch of a 1080p pair's census match
+# save its codes.
+LARGEST = 8 << 20
 LIMIT = 64 << 20
 
 
 class Workspace:
     """Buffers kept between runs, one per role."""
 
-    def __init__(self, limit=LIMIT):
-        self.limit = limit
+    def __init__(self, limit=LIMIT, largest=LARGEST):
+        self.limit, self.largest = limit, largest
         self._held = {}  # role -> uint8 (n,) buffer
 
     def held(self):
@@ -40,13 +46,13 @@ class Workspace:
     def empty(self, role, shape, dtype):
         """An uninitialised array of ``shape`` and ``dtype`` in the buffer kept for
         ``role`` (grown as needed), or a fresh array when keeping it would pass the
-        limit.  It is valid until the next request for ``role``."""
+        limits.  It is valid until the next request for ``role``."""
         dtype = np.dtype(dtype)
         nbytes = math.prod(shape) * dtype.itemsize
         buffer = self._held.get(role)
         if buffer is None or buffer.size < nbytes:
             self._held.pop(role, None)
-            if self.held() + nbytes > self.limit:
+            if nbytes > self.largest or self.held() + nbytes > self.limit:
                 return np.empty(shape, dtype)
             # numpy aligns its buffers for every dtype, so the views below are aligned.
             buffer = self._held[role] = np.empty(nbytes, np.uint8)

@@ -6,7 +6,7 @@ import threading
 import numpy as np
 
 import csw
-from csw import kernels
+from csw import kernels, params, pipeline
 from csw.kernels.workspace import Workspace, for_this_thread
 
 
@@ -65,3 +65,25 @@ def test_results_of_csw_match_survive_the_next_match(small_scene):
     csw.match(right, left, dmax=12)
     np.testing.assert_array_equal(first.disparity, kept[0])
     np.testing.assert_array_equal(first.min_cost, kept[1])
+
+
+def test_a_buffer_over_the_largest_is_never_kept():
+    ws = Workspace(limit=1 << 20, largest=1000)
+    big = ws.empty("codes", (200,), np.uint64)  # 1600 bytes: larger than any kept
+    assert ws.held() == 0
+    assert not np.shares_memory(big, ws.empty("codes", (200,), np.uint64))
+    assert ws.held() == 0 and ws.empty("codes", (100,), np.uint64).nbytes == 800
+    assert ws.held() == 800
+
+
+def test_csw_match_uses_its_threads_workspace_and_bare_pipeline_runs_do_not(small_scene):
+    """Whole-image matches reuse the thread's buffers; a pipeline run without a
+    workspace (the tiled bands, whose memory is planned) keeps nothing."""
+    left, right = small_scene[:2]
+    ws = for_this_thread()
+    ws._held.clear()
+    opts = params.resolve(dmax=12)
+    pipeline.run(left, right, params.kernel_args(opts), params.stages(opts))
+    assert ws.held() == 0
+    csw.match(left, right, dmax=12)
+    assert ws.held() > 0  # the census codes, the right map, the masks
