@@ -28,33 +28,41 @@ def _make(code):
         fills) and, with sc[4], with the columns reversed: the layouts the engines read.
 
         image_p: (H + size - 1, W + size - 1), edge-padded by size // 2.  codes: (H + 2p,
-        W + 2p) out, p = sc[3].  planes: uint8 ((size * size - 1) // 8, W) scratch.  The
-        bits are built eight neighbours at a time in a byte plane (one neighbour across
-        the whole row at a time, so the loop over x runs in 8-bit SIMD lanes); one pass
-        then joins the planes into codes, the first plane most significant, and writes
-        them in the order asked for.
+        W + 2p) out, p = sc[3].  planes: uint8 ((size * size - 1) // 8, W) scratch.  Each
+        byte plane takes eight neighbours in one pass over the row (8-bit SIMD lanes; a
+        pass per neighbour cost twice as long, in loop set-up); one pass then joins the
+        planes into codes, the first plane most significant.
         """
         size, y0, y1, pad, reverse = sc[0], sc[1], sc[2], sc[3], sc[4]
         h = size // 2
         width = codes.shape[1] - 2 * pad
         groups = planes.shape[0]  # size * size - 1 is a multiple of 8 for odd sizes
+        middle = size * size // 2  # the centre's place in the window, skipped
         for y in range(y0, y1):
             padded = codes[y + pad]
             centre = image_p[y + h, h:h + width]
-            i = 0
-            for a in range(size):
-                for b in range(size):
-                    if a == h and b == h:
-                        continue
-                    neighbour = image_p[y + a, b:b + width]
-                    byte = planes[i // 8]
-                    if i % 8 == 0:
-                        for x in range(width):
-                            byte[x] = neighbour[x] < centre[x]
-                    else:
-                        for x in range(width):
-                            byte[x] = (byte[x] << 1) | (neighbour[x] < centre[x])
-                    i += 1
+            for g in range(groups):
+                # Neighbours i = 8g .. 8g + 7 in window order: place q = i, past the
+                # centre i + 1; row q // size, column q % size.
+                i = 8 * g
+                q0, q1, q2, q3 = (i + (i >= middle), i + 1 + (i + 1 >= middle),
+                                  i + 2 + (i + 2 >= middle), i + 3 + (i + 3 >= middle))
+                q4, q5, q6, q7 = (i + 4 + (i + 4 >= middle), i + 5 + (i + 5 >= middle),
+                                  i + 6 + (i + 6 >= middle), i + 7 + (i + 7 >= middle))
+                n0 = image_p[y + q0 // size, q0 % size:q0 % size + width]
+                n1 = image_p[y + q1 // size, q1 % size:q1 % size + width]
+                n2 = image_p[y + q2 // size, q2 % size:q2 % size + width]
+                n3 = image_p[y + q3 // size, q3 % size:q3 % size + width]
+                n4 = image_p[y + q4 // size, q4 % size:q4 % size + width]
+                n5 = image_p[y + q5 // size, q5 % size:q5 % size + width]
+                n6 = image_p[y + q6 // size, q6 % size:q6 % size + width]
+                n7 = image_p[y + q7 // size, q7 % size:q7 % size + width]
+                byte = planes[g]
+                for x in range(width):
+                    c = centre[x]
+                    byte[x] = (((n0[x] < c) << 7) | ((n1[x] < c) << 6) | ((n2[x] < c) << 5) |
+                               ((n3[x] < c) << 4) | ((n4[x] < c) << 3) | ((n5[x] < c) << 2) |
+                               ((n6[x] < c) << 1) | (n7[x] < c))
             out = padded[pad:pad + width]
             if groups == 6:  # 7 x 7, the default: the join written out vectorises
                 p0, p1, p2, p3, p4, p5 = planes[0], planes[1], planes[2], planes[3], \
