@@ -65,16 +65,17 @@ def _row_runs(disp, y, limit, runs, next_run):
     """Number row y's runs from next_run on: maximal horizontal stretches of valid pixels
     whose neighbours differ by at most limit.  runs: int32 (W,) out, each pixel's run or
     -1 where invalid.  Returns the next free number."""
-    width = disp.shape[1]
-    for x in range(width):
-        v = disp[y, x]
-        if np.isnan(v):
-            runs[x] = -1
-        elif x > 0 and runs[x - 1] >= 0 and abs(v - disp[y, x - 1]) <= limit:
-            runs[x] = runs[x - 1]
-        else:
-            runs[x] = next_run
-            next_run += 1
+    row = disp[y]
+    previous = np.float32(np.nan)  # compares False with everything: no run to continue
+    # Branch-free (the valid and invalid pixels of a noisy map defeat branch prediction):
+    # a valid pixel that does not continue the run on its left starts one.
+    for x in range(row.shape[0]):
+        v = row[x]
+        valid = not np.isnan(v)
+        continues = abs(v - previous) <= limit  # False when either is NaN
+        next_run += np.int64(valid) - np.int64(continues)
+        runs[x] = next_run - 1 if valid else -1
+        previous = v
     return next_run
 
 
