@@ -212,8 +212,9 @@ def _make(cost, acc, csw, right_map, extras, negative):
                     d_r = right_rev_d[base:]
                     for k in range(lo, n):
                         v = row_sums[k]
-                        d_r[k] = np.int16(k) if v < best_r[k] else d_r[k]
-                        best_r[k] = min(v, best_r[k])
+                        if v < best_r[k]:  # masked stores: cheaper than selects here
+                            d_r[k] = np.int16(k)
+                            best_r[k] = v
             for k in range(n, ndisp):  # not candidates yet (d > x), needed further right
                 row_sums[k] = row_sums[k] + add[k] - sub[k]
             evaluated += n - lo - taken
