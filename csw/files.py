@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from . import calib as calib_module
+from . import kernels
 from .geometry import CLOUD_SUFFIXES, DEPTH_SUFFIXES
 from .geometry import writers as three_d_writers
 from .io.atomic import atomic_write_all
@@ -111,6 +112,9 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
         return _noted(result, range_note, calibration)
     images = [_read(path, name) for name, path in (("left", left), ("right", right))]
     result = match(*images, want_confidence=confidence is not None, **options)
+    # One pair: its outputs are written next, and scratch kept for a next match would
+    # only raise this process's peak memory (a batch keeps it: csw.batch).
+    kernels.workspace.for_this_thread().release()
     disp = result.disparity
     writers = [(output, disparity_writer(output, disp))]
     if preview is not None:

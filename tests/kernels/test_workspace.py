@@ -30,6 +30,9 @@ def test_past_the_limit_arrays_are_fresh_and_not_kept():
     again = ws.empty("big", (200,), np.uint64)
     assert not np.shares_memory(big, again)
     assert np.shares_memory(kept, ws.empty("small", (50,), np.uint8))
+    ws.release()
+    assert ws.held() == 0
+    assert not np.shares_memory(kept, ws.empty("small", (50,), np.uint8))
 
 
 def test_each_thread_has_its_own_workspace():
@@ -87,3 +90,14 @@ def test_csw_match_uses_its_threads_workspace_and_bare_pipeline_runs_do_not(smal
     assert ws.held() == 0
     csw.match(left, right, dmax=12)
     assert ws.held() > 0  # the census codes, the right map, the masks
+
+
+def test_one_pair_written_to_files_keeps_nothing(pair_files, tmp_path):
+    """csw.match_files writes its outputs right after the match: scratch kept for a next
+    match would only raise that stage's peak memory."""
+    left, right = pair_files[:2]
+    csw.match(str(left), str(right), dmax=12)
+    assert for_this_thread().held() > 0
+    csw.match_files(str(left), str(right), str(tmp_path / "d.pfm"), dmax=12)
+    assert for_this_thread().held() == 0
+    assert (tmp_path / "d.pfm").stat().st_size > 0
