@@ -73,3 +73,28 @@ def test_wrapping_uint16_sums_stay_exact_at_the_limit():
     right = (rng.integers(0, 2, (40, 60)) * 255).astype(np.uint8)
     result = assert_engines_equal(left, right, window=9, dmin=0, dmax=30, cost="sad")
     assert result.min_cost.max() > 10000
+
+
+@pytest.mark.parametrize("ndisp", [40, 100, 200])
+@pytest.mark.parametrize("cost", ["sad", "census"])
+def test_every_map_equal_across_the_selection_paths(ndisp, cost):
+    """The fast engine picks the minimum in one of three ways by range and maps (packed
+    keys up to 64 or 128 disparities, else two passes, the right map beside either: see
+    KEYED_RANGE in kernels/jit/fast.py); every map of each equals the window engine's on
+    ranges that take each way, with and without CSW."""
+    rng = np.random.default_rng(ndisp)
+    left = rng.integers(0, 4, (12, ndisp + 60)).astype(np.uint8)  # few levels: ties
+    right = np.roll(left, -ndisp // 3, axis=1) ^ (rng.random(left.shape) < 0.1)
+    right = right.astype(np.uint8)
+    for mode in ({}, {"csw": True, "tau": 60}, {"csw": True, "tau": 60, "rule": "unique"}):
+        options = dict(window=3, dmin=0, dmax=ndisp - 1, cost=cost, census_window=3,
+                       right_map=True, extras=True, **mode)
+        window = kernels.match(left, right, engine="window", **options)
+        fast = kernels.match(left, right, engine="fast", **options)
+        for name in ("disparity", "min_cost", "second_cost", "prev_cost", "next_cost",
+                     "right_disparity"):
+            np.testing.assert_array_equal(getattr(fast, name), getattr(window, name),
+                                          err_msg=f"{name} {mode}")
+        no_maps = dict(options, right_map=False, extras=False)
+        np.testing.assert_array_equal(
+            kernels.match(left, right, engine="fast", **no_maps).disparity, window.disparity)
