@@ -124,7 +124,7 @@ def run(left, right, kernel_args, stages, confidence=False, workspace=None):
         memory is planned).
     """
     disp, conf, raw = match_rows(left, right, kernel_args, stages, confidence, workspace)
-    disp, conf = filter_map(disp, conf, stages, workspace)
+    disp, conf = filter_map(disp, conf, stages, workspace, kernel_args.get("threads"))
     return disp, conf, raw
 
 
@@ -168,7 +168,7 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
     valid = raw.disparity != invalid
     if stages["lr_check"] is not None:
         valid &= lr_consistent(raw.disparity, raw.right_disparity, stages["lr_check"],
-                               invalid, workspace)
+                               invalid, workspace, kernel_args.get("threads"))
         raw.right_disparity = None  # maybe the workspace's: not to be kept
     if stages["uniqueness_ratio"] is not None:
         valid &= distinct(raw.min_cost, raw.second_cost, stages["uniqueness_ratio"])
@@ -190,20 +190,20 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
     return disp, conf, raw
 
 
-def filter_map(disp, conf, stages, workspace=None):
+def filter_map(disp, conf, stages, workspace=None, threads=None):
     """The 2-D stages on :func:`match_rows`' maps: speckle removal, the median, then the
     background fill; the confidence is 0 wherever the filters left no disparity.  Returns
     (disparity, confidence), float32 (H, W); ``disp`` may be changed in place, and a
-    ``conf`` of None stays None.  workspace: see :func:`run`."""
+    ``conf`` of None stays None.  workspace: see :func:`run`; threads: as for csw.match."""
     if stages["speckle_size"] > 0:
         disp[speckle_mask(disp, int(stages["speckle_size"]), float(stages["speckle_range"]),
-                          workspace)] = np.nan
+                          workspace, threads)] = np.nan
     if stages["median"]:
-        disp = median_valid(disp, int(stages["median"]))
+        disp = median_valid(disp, int(stages["median"]), threads)
     if conf is not None and not is_row_local(stages):
         # Filters only remove pixels (the median keeps the valid set), so masking the
         # confidence afterwards equals computing it on the filtered map.
         conf = np.where(np.isfinite(disp), conf, np.float32(0))
     if stages["fill"] == "background":
-        disp = fill_background(disp)
+        disp = fill_background(disp, threads)
     return disp, conf

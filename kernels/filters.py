@@ -13,12 +13,17 @@ import numpy as np
 from . import native, runtime
 from .workspace import empty
 
+# The speckle filter's work per pixel in runtime.DIRECT_WORK's units: about 6 ns a pixel
+# in one thread, so that maps from 2 MP up run in parallel stripes.
+SPECKLE_WORK = 25
 
-def _by_rows(kind, arrays, height, extra=(), scratch=None):
-    """Run a row-local filter over stripes of rows, one per thread."""
+
+def _by_rows(kind, arrays, height, extra=(), scratch=None, threads=None, per_pixel=8):
+    """Run a row-local filter over stripes of rows, one per thread (``threads``: as for
+    csw.match); per_pixel: its work per pixel in runtime.DIRECT_WORK's units."""
     run = native.entry("filters", (kind,))
-    work = arrays[0].size * 8
-    count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(None), height)
+    work = arrays[0].size * per_pixel
+    count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = np.linspace(0, height, count + 1).round().astype(np.int64)
 
     def stripe(i, stop):
@@ -28,55 +33,78 @@ def _by_rows(kind, arrays, height, extra=(), scratch=None):
     runtime.run_stripes(stripe, count, count, work)
 
 
-def lr_consistent(disp, right_disp, limit, invalid=-1, workspace=None):
+def lr_consistent(disp, right_disp, limit, invalid=-1, workspace=None, threads=None):
     """bool (H, W): d = disp[y, x] is valid (not ``invalid``, the maps' invalid value:
     see contract.invalid) and its right pixel's own match, right_disp[y, x - d]
     (``invalid``: none), differs from it by at most ``limit``.
 
     disp, right_disp: int32 (H, W).  workspace: a kernels.workspace.Workspace to take the
-    result from (valid until its next check), else a new array."""
+    result from (valid until its next check), else a new array.  threads: as for
+    csw.match."""
     disp, right_disp = np.ascontiguousarray(disp), np.ascontiguousarray(right_disp)
     valid = empty(workspace, "lr-valid", disp.shape, np.uint8)
-    _by_rows("lr", [disp, right_disp, valid], disp.shape[0], [int(limit), int(invalid)])
+    # About 1.8 ns a pixel in one thread: 10 units, parallel from about 5 MP up.
+    _by_rows("lr", [disp, right_disp, valid], disp.shape[0], [int(limit), int(invalid)],
+             threads=threads, per_pixel=10)
     return valid.view(np.bool_)
 
 
-def speckle_mask(disp, max_size, max_diff, workspace=None):
+def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None):
     """bool (H, W): True for valid pixels in regions of fewer than ``max_size`` pixels,
     where a region is a 4-connected set of valid pixels whose neighbours differ by at
     most ``max_diff``.  Scratch: a union-find forest over the rows' runs (its H * W
     entries are reserved, and only as many as there are runs are touched).
     workspace: a kernels.workspace.Workspace for the scratch and the result (valid until
-    its next speckle mask), else new arrays."""
+    its next speckle mask), else new arrays.  threads: as for csw.match.
+
+    Stripes of rows find their regions in parallel, one thread joins them across the
+    stripes' edges, and the stripes mark the small regions in parallel."""
     disp = np.ascontiguousarray(disp, np.float32)
+    height, width = disp.shape
     small = empty(workspace, "speckle-mask", disp.shape, np.uint8)
-    forest = [empty(workspace, f"speckle-forest-{i}", (disp.size,), np.int32)
-              for i in range(2)]
-    rows = [np.empty(disp.shape[1], np.int32) for _ in range(2)]
-    native.entry("filters", ("speckle",))([disp, small, *forest, *rows,
-                                           np.array([max_diff], np.float64)],
-                                          [int(max_size)])
+    parent, size = (empty(workspace, f"speckle-forest-{i}", (disp.size,), np.int32)
+                    for i in range(2))
+    first = np.empty(height, np.int64)
+    limit = np.array([max_diff], np.float64)
+    work = disp.size * SPECKLE_WORK
+    count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
+    edges = np.linspace(0, height, count + 1).round().astype(np.int64)
+
+    def rows():
+        return np.empty(width, np.int32)
+
+    regions = native.entry("filters", ("speckle-regions",))
+    runtime.run_stripes(lambda i, stop: regions(
+        [disp, parent, size, first, rows(), rows(), limit], [edges[i], edges[i + 1]]),
+        count, count, work)
+    if count > 1:
+        native.entry("filters", ("speckle-join",))(
+            [disp, parent, size, first, rows(), rows(), limit, edges[1:-1].copy()], [])
+    mark = native.entry("filters", ("speckle-mark",))
+    runtime.run_stripes(lambda i, stop: mark(
+        [disp, small, parent, size, first, limit],
+        [edges[i], edges[i + 1], int(max_size), int(count == 1)]), count, count, work)
     return small.view(np.bool_)
 
 
-def median_valid(disp, size):
+def median_valid(disp, size, threads=None):
     """float32 (H, W): each valid pixel becomes the median of the valid pixels in its
     size x size window (the lower middle for an even count); invalid pixels stay NaN."""
     disp = np.ascontiguousarray(disp, np.float32)
     out = np.empty_like(disp)
     _by_rows("median", [disp, out], disp.shape[0], [int(size)],
-             scratch=lambda: np.empty(size * size, np.float32))
+             scratch=lambda: np.empty(size * size, np.float32), threads=threads)
     return out
 
 
-def fill_background(disp):
+def fill_background(disp, threads=None):
     """float32 (H, W) with no invalid pixel: along each row, an invalid pixel takes the
     smaller of the nearest valid disparities to its left and right (the background side);
     at a row's end, the one valid neighbour; a row with none becomes 0 (the KITTI
     devkit's interpolation, used by the Middlebury kit for sparse results too)."""
     disp = np.ascontiguousarray(disp, np.float32)
     out = np.empty_like(disp)
-    _by_rows("fill", [disp, out], disp.shape[0])
+    _by_rows("fill", [disp, out], disp.shape[0], threads=threads)
     return out
 
 
@@ -84,7 +112,9 @@ def entries(stages):
     """The (kernel, variant) entries the filters of ``stages`` load."""
     kinds = [kind for kind, used in (
         ("lr", stages.get("lr_check") is not None),
-        ("speckle", stages.get("speckle_size", 0) > 0),
+        ("speckle-regions", stages.get("speckle_size", 0) > 0),
+        ("speckle-join", stages.get("speckle_size", 0) > 0),
+        ("speckle-mark", stages.get("speckle_size", 0) > 0),
         ("median", bool(stages.get("median", 0))),
         ("fill", stages.get("fill", "none") == "background")) if used]
     return [("filters", (kind,)) for kind in kinds]

@@ -4,7 +4,9 @@ valid pixels only, and the background fill of the Middlebury and KITTI kits.
 
 Maps are float32 (H, W) with NaN where invalid, save the left-right check's int32 maps.
 Row-local filters work on a stripe of rows (sc[0] <= y < sc[1]) so that stripes run in
-parallel; the speckle filter's regions span rows, so it runs whole.
+parallel.  The speckle filter's regions span rows: its stripes find their own regions in
+parallel, one thread joins them across the stripes' edges, and the stripes mark the
+small ones in parallel.
 """
 
 import numpy as np
@@ -12,20 +14,29 @@ from numba import njit
 
 from ..config import SERIAL
 
-F32, I32, U8, F64 = (np.dtype(t) for t in (np.float32, np.int32, np.uint8, np.float64))
+F32, I32, I64, U8, F64 = (np.dtype(t) for t in (np.float32, np.int32, np.int64, np.uint8,
+                                                 np.float64))
 
 
 def spec(kind):
-    """The worker of a filter: "lr", "speckle", "median" or "fill"."""
+    """The worker of a filter: "lr", "speckle-regions", "speckle-join", "speckle-mark",
+    "median" or "fill"."""
     from ..native import Spec
 
     return {
         # disp, right_disp (H, W) int32; valid (H, W) uint8 out; sc: y0, y1, limit, invalid
         "lr": Spec(lr_consistent, ((I32, 2), (I32, 2), (U8, 2)), 4),
-        # disp (H, W); small (H, W) uint8 out; parent, size (H*W,) int32, above, here
-        # (W,) int32 scratch; max_diff (1,) float64; sc: max_size
-        "speckle": Spec(speckle_mask, ((F32, 2), (U8, 2), (I32, 1), (I32, 1), (I32, 1),
-                                       (I32, 1), (F64, 1)), 1),
+        # disp (H, W); parent, size (H*W,) int32; first (H,) int64 out; here, above (W,)
+        # int32 scratch; max_diff (1,) float64; sc: y0, y1
+        "speckle-regions": Spec(speckle_regions, ((F32, 2), (I32, 1), (I32, 1), (I64, 1),
+                                                  (I32, 1), (I32, 1), (F64, 1)), 2),
+        # as speckle-regions, and edges (n,) int64: the rows that start a stripe
+        "speckle-join": Spec(speckle_join, ((F32, 2), (I32, 1), (I32, 1), (I64, 1),
+                                            (I32, 1), (I32, 1), (F64, 1), (I64, 1)), 0),
+        # disp (H, W); small (H, W) uint8 out; parent, size, first as above; max_diff;
+        # sc: y0, y1, max_size, alone
+        "speckle-mark": Spec(speckle_mark, ((F32, 2), (U8, 2), (I32, 1), (I32, 1),
+                                            (I64, 1), (F64, 1)), 4),
         # disp, out (H, W); window (size*size,) scratch; sc: y0, y1, size
         "median": Spec(median_valid, ((F32, 2), (F32, 2), (F32, 1)), 3),
         # disp, out (H, W); sc: y0, y1
@@ -80,54 +91,101 @@ def _row_runs(disp, y, limit, runs, next_run):
 
 
 @njit(**SERIAL)
-def speckle_mask(disp, small, parent, size, above, here, max_diff, sc):
-    """small = 1 for valid pixels in regions of fewer than sc[0] pixels, where a region is
-    a 4-connected set of valid pixels whose neighbours differ by at most max_diff[0].
+def _join(parent, size, a, b):
+    """Join the trees of runs a and b, the smaller under the larger."""
+    ra, rb = _root(parent, a), _root(parent, b)
+    if ra != rb:
+        if size[ra] < size[rb]:
+            ra, rb = rb, ra
+        parent[rb] = ra
+        size[ra] += size[rb]
+
+
+@njit(**SERIAL)
+def _join_rows(disp, y, limit, here, above, parent, size):
+    """Join each run of row y to the runs of row y - 1 it touches: wherever a pixel and
+    the one above differ by at most limit.  here, above: the two rows' runs."""
+    joined_a, joined_b = -1, -1  # the last pair of runs joined: most links repeat it
+    for x in range(disp.shape[1]):
+        a, b = here[x], above[x]
+        if a < 0 or b < 0 or (a == joined_a and b == joined_b) or \
+                abs(disp[y, x] - disp[y - 1, x]) > limit:
+            continue
+        joined_a, joined_b = a, b
+        _join(parent, size, a, b)
+
+
+@njit(**SERIAL)
+def speckle_regions(disp, parent, size, first, here, above, max_diff, sc):
+    """The regions of a stripe of rows, sc[0] <= y < sc[1], on their own: a region is a
+    4-connected set of valid pixels whose neighbours differ by at most max_diff[0].
 
     Regions are found as runs joined into a union-find forest: each row's runs (see
-    _row_runs), joined to the runs above them wherever a pixel and the one above differ
-    by at most the limit; a second scan numbers the runs again, in the same order, and
-    marks the pixels of small regions.  parent, size: int32 (H * W,) (as many entries are
-    written as there are runs); above, here: int32 (W,) scratch.
+    _row_runs), joined to the runs above them.  A stripe numbers its runs from y0 * W on,
+    so that stripes use disjoint entries of parent and size (int32 (H * W,); as many are
+    written as there are runs); first[y]: row y's first run number.  here, above: int32
+    (W,) scratch.
     """
-    height, width = disp.shape
-    max_size, limit = sc[0], max_diff[0]
-    next_run = 0
-    for y in range(height):
-        first = next_run
+    width = disp.shape[1]
+    limit = max_diff[0]
+    y0, y1 = sc[0], sc[1]
+    next_run = y0 * width
+    for y in range(y0, y1):
+        first[y] = next_run
         next_run = _row_runs(disp, y, limit, here, next_run)
-        for run in range(first, next_run):
+        for run in range(first[y], next_run):
             parent[run] = run
             size[run] = 0
         for x in range(width):  # the row's runs, whole, before any of them is joined
             if here[x] >= 0:
                 size[here[x]] += 1
-        joined_a, joined_b = -1, -1  # the last pair of runs joined: most links repeat it
-        for x in range(width):
-            a, b = here[x], above[x] if y > 0 else -1
-            if a < 0 or b < 0 or (a == joined_a and b == joined_b) or \
-                    abs(disp[y, x] - disp[y - 1, x]) > limit:
-                continue
-            joined_a, joined_b = a, b
-            ra, rb = _root(parent, a), _root(parent, b)
-            if ra != rb:  # the smaller tree under the larger
-                if size[ra] < size[rb]:
-                    ra, rb = rb, ra
-                parent[rb] = ra
-                size[ra] += size[rb]
-        above, here = here, above
-    # Each run's verdict, once: parent[run] becomes its root, then whether the root's
-    # region is small (each entry then read by its own run only).
-    for run in range(next_run):
-        parent[run] = _root(parent, run)
-    for run in range(next_run):
-        parent[run] = size[parent[run]] < max_size
-    next_run = 0
-    for y in range(height):
-        next_run = _row_runs(disp, y, limit, here, next_run)
-        for x in range(width):
-            run = here[x]
-            small[y, x] = run >= 0 and parent[run] != 0
+        if y > y0:
+            _join_rows(disp, y, limit, here, above, parent, size)
+        here, above = above, here
+    return 0
+
+
+@njit(**SERIAL)
+def speckle_join(disp, parent, size, first, here, above, max_diff, edges, sc):
+    """Join the stripes' regions across their edges: each row in edges to the row above
+    it, their runs numbered again from first."""
+    limit = max_diff[0]
+    for i in range(edges.shape[0]):
+        y = edges[i]
+        _row_runs(disp, y - 1, limit, above, first[y - 1])
+        _row_runs(disp, y, limit, here, first[y])
+        _join_rows(disp, y, limit, here, above, parent, size)
+    return 0
+
+
+@njit(**SERIAL)
+def speckle_mark(disp, small, parent, size, first, max_diff, sc):
+    """small[y, x] = 1 for the valid pixels of rows sc[0] <= y < sc[1] whose region has
+    fewer than sc[2] pixels, once every region is whole: the rows' runs numbered again
+    from first, in one pass with the marking (a run's verdict taken where it starts).
+    With other stripes at work (sc[3] = 0) the roots are found without shortening paths,
+    since stripes may then only read the forest; alone (sc[3] = 1), shortening them is
+    faster."""
+    limit, max_size, alone = max_diff[0], sc[2], sc[3]
+    for y in range(sc[0], sc[1]):
+        row = disp[y]
+        previous = np.float32(np.nan)
+        run = first[y] - 1
+        verdict = False
+        for x in range(row.shape[0]):
+            v = row[x]
+            valid = not np.isnan(v)
+            if valid and not abs(v - previous) <= limit:  # a run starts (see _row_runs)
+                run += 1
+                if alone:
+                    root = _root(parent, run)
+                else:
+                    root = run
+                    while parent[root] != root:
+                        root = parent[root]
+                verdict = size[root] < max_size
+            small[y, x] = valid and verdict
+            previous = v
     return 0
 
 

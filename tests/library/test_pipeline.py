@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 import csw
 import oracle
 from csw import kernels, params, pipeline
-from csw.kernels import filters
+from csw.kernels import filters, runtime
 
 
 def random_map(rng, shape, levels=5, holes=0.2):
@@ -41,6 +41,29 @@ def test_speckle_median_fill(seed, size, step):
     filled = filters.fill_background(disp)
     np.testing.assert_array_equal(filled, oracle.fill_background(disp))
     assert np.isfinite(filled).all()
+
+
+@settings(deadline=None, max_examples=40)
+@given(seed=st.integers(0, 2**31), size=st.integers(1, 40), step=st.sampled_from([0.5, 1]),
+       height=st.integers(2, 30))
+def test_speckle_in_stripes_equals_the_oracle(seed, size, step, height, monkeypatch_work):
+    """Maps big enough for stripes (here: all of them) find their regions in parallel
+    stripes joined across the edges; regions that span the edges, in any shape, come out
+    as the whole map's."""
+    if runtime.max_threads() < 2:
+        pytest.skip("one core: no stripes to join")
+    rng = np.random.default_rng(seed)
+    disp = random_map(rng, (height, 13), levels=3, holes=0.15)
+    np.testing.assert_array_equal(filters.speckle_mask(disp, size, step, threads=2),
+                                  oracle.speckles(disp, size, step))
+
+
+@pytest.fixture(scope="module")
+def monkeypatch_work():
+    """Every speckle mask runs in stripes (one per thread): its work counts as huge."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(filters, "SPECKLE_WORK", 10**9)
+        yield
 
 
 @settings(deadline=None)
