@@ -70,20 +70,18 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None):
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = np.linspace(0, height, count + 1).round().astype(np.int64)
 
-    def rows():
-        return np.empty(width, np.int32)
+    run = native.entry("filters", ("speckle",))
+    none = np.empty(0, np.int64)
 
-    regions = native.entry("filters", ("speckle-regions",))
-    runtime.run_stripes(lambda i, stop: regions(
-        [disp, parent, size, first, rows(), rows(), limit], [edges[i], edges[i + 1]]),
-        count, count, work)
+    def step(number, i, joins=none):  # see jit/filters.py, speckle
+        rows = [np.empty(width, np.int32) for _ in range(2)]
+        return run([disp, small, parent, size, first, *rows, limit, joins],
+                   [number, edges[i], edges[i + 1], int(max_size), int(count == 1)])
+
+    runtime.run_stripes(lambda i, stop: step(0, i), count, count, work)
     if count > 1:
-        native.entry("filters", ("speckle-join",))(
-            [disp, parent, size, first, rows(), rows(), limit, edges[1:-1].copy()], [])
-    mark = native.entry("filters", ("speckle-mark",))
-    runtime.run_stripes(lambda i, stop: mark(
-        [disp, small, parent, size, first, limit],
-        [edges[i], edges[i + 1], int(max_size), int(count == 1)]), count, count, work)
+        step(1, 0, edges[1:-1].copy())
+    runtime.run_stripes(lambda i, stop: step(2, i), count, count, work)
     return small.view(np.bool_)
 
 
@@ -112,9 +110,7 @@ def entries(stages):
     """The (kernel, variant) entries the filters of ``stages`` load."""
     kinds = [kind for kind, used in (
         ("lr", stages.get("lr_check") is not None),
-        ("speckle-regions", stages.get("speckle_size", 0) > 0),
-        ("speckle-join", stages.get("speckle_size", 0) > 0),
-        ("speckle-mark", stages.get("speckle_size", 0) > 0),
+        ("speckle", stages.get("speckle_size", 0) > 0),
         ("median", bool(stages.get("median", 0))),
         ("fill", stages.get("fill", "none") == "background")) if used]
     return [("filters", (kind,)) for kind in kinds]

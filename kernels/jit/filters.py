@@ -19,24 +19,17 @@ F32, I32, I64, U8, F64 = (np.dtype(t) for t in (np.float32, np.int32, np.int64, 
 
 
 def spec(kind):
-    """The worker of a filter: "lr", "speckle-regions", "speckle-join", "speckle-mark",
-    "median" or "fill"."""
+    """The worker of a filter: "lr", "speckle", "median" or "fill"."""
     from ..native import Spec
 
     return {
         # disp, right_disp (H, W) int32; valid (H, W) uint8 out; sc: y0, y1, limit, invalid
         "lr": Spec(lr_consistent, ((I32, 2), (I32, 2), (U8, 2)), 4),
-        # disp (H, W); parent, size (H*W,) int32; first (H,) int64 out; here, above (W,)
-        # int32 scratch; max_diff (1,) float64; sc: y0, y1
-        "speckle-regions": Spec(speckle_regions, ((F32, 2), (I32, 1), (I32, 1), (I64, 1),
-                                                  (I32, 1), (I32, 1), (F64, 1)), 2),
-        # as speckle-regions, and edges (n,) int64: the rows that start a stripe
-        "speckle-join": Spec(speckle_join, ((F32, 2), (I32, 1), (I32, 1), (I64, 1),
-                                            (I32, 1), (I32, 1), (F64, 1), (I64, 1)), 0),
-        # disp (H, W); small (H, W) uint8 out; parent, size, first as above; max_diff;
-        # sc: y0, y1, max_size, alone
-        "speckle-mark": Spec(speckle_mark, ((F32, 2), (U8, 2), (I32, 1), (I32, 1),
-                                            (I64, 1), (F64, 1)), 4),
+        # disp (H, W); small (H, W) uint8 out; parent, size (H*W,) int32; first (H,)
+        # int64; here, above (W,) int32 scratch; max_diff (1,) float64; edges (n,) int64;
+        # sc: step, y0, y1, max_size, alone (see speckle)
+        "speckle": Spec(speckle, ((F32, 2), (U8, 2), (I32, 1), (I32, 1), (I64, 1),
+                                  (I32, 1), (I32, 1), (F64, 1), (I64, 1)), 5),
         # disp, out (H, W); window (size*size,) scratch; sc: y0, y1, size
         "median": Spec(median_valid, ((F32, 2), (F32, 2), (F32, 1)), 3),
         # disp, out (H, W); sc: y0, y1
@@ -146,7 +139,7 @@ def speckle_regions(disp, parent, size, first, here, above, max_diff, sc):
 
 
 @njit(**SERIAL)
-def speckle_join(disp, parent, size, first, here, above, max_diff, edges, sc):
+def speckle_join(disp, parent, size, first, here, above, max_diff, edges):
     """Join the stripes' regions across their edges: each row in edges to the row above
     it, their runs numbered again from first."""
     limit = max_diff[0]
@@ -187,6 +180,19 @@ def speckle_mark(disp, small, parent, size, first, max_diff, sc):
             small[y, x] = valid and verdict
             previous = v
     return 0
+
+
+@njit(**SERIAL)
+def speckle(disp, small, parent, size, first, here, above, max_diff, edges, sc):
+    """The speckle filter's three steps in one entry (one compile, not three): sc[0] = 0
+    finds a stripe's regions (speckle_regions), 1 joins the stripes (speckle_join), 2
+    marks a stripe's small regions (speckle_mark); sc[1:] are y0, y1, max_size, alone."""
+    step = sc[0]
+    if step == 0:
+        return speckle_regions(disp, parent, size, first, here, above, max_diff, sc[1:3])
+    if step == 1:
+        return speckle_join(disp, parent, size, first, here, above, max_diff, edges)
+    return speckle_mark(disp, small, parent, size, first, max_diff, sc[1:])
 
 
 @njit(**SERIAL)
