@@ -14,7 +14,7 @@ Layers:
 import numpy as np
 
 from . import native, runtime
-from .contract import CENSUS, SHD, census_dtype, dtype_name
+from .contract import CENSUS, SHD, census_dtype, dtype_name, pad_edge
 
 
 def variant(pixels, size):
@@ -31,7 +31,7 @@ def census_transform(image, size, threads=None, pad=0, reverse=False, out=None):
     place rather than copied.  out: the array to write them into (of that shape and
     type, C-contiguous), else a new one."""
     image = np.ascontiguousarray(image)
-    padded = np.pad(image, size // 2, mode="edge")
+    padded = pad_edge(image, size // 2, image.dtype)
     height, width = image.shape
     shape = (height + 2 * pad, width + 2 * pad)
     codes = np.empty(shape, census_dtype(size)) if out is None else out

@@ -34,9 +34,10 @@ from .contract import (
     candidate_count,
     census_dtype,
     dtype_name,
+    pad_edge,
     validate,
 )
-from .window import extra_maps, pad_edge, result
+from .window import extra_maps, result
 from .workspace import empty
 
 COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
@@ -74,6 +75,8 @@ def stripe_bounds(height, window, threads, rows):
     """
     if rows.size == 0:
         return np.zeros((0, 2), np.int64)
+    if threads == 1 and rows[-1] - rows[0] + 1 == rows.size:  # one run, one thread
+        return np.array([[rows[0], rows[-1] + 1]], np.int64)
     breaks = np.flatnonzero(np.diff(rows) != 1) + 1
     starts = rows[np.r_[0, breaks]]
     ends = rows[np.r_[breaks - 1, rows.size - 1]] + 1

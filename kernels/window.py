@@ -22,18 +22,12 @@ from .contract import (
     candidate_count,
     dtype_name,
     invalid,
+    pad_edge,
     validate,
 )
 from .workspace import empty
 
 COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
-
-
-def pad_edge(image, h, dtype=np.uint16):
-    """Copy of a (H, W) image padded by h on every side with its edge values (the
-    contract's clamp), as ``dtype``: the window engine uses one uint16 kernel for 8- and
-    16-bit input; the fast engine keeps 8-bit data 8-bit."""
-    return np.pad(image.astype(dtype, copy=False), h, mode="edge")
 
 
 def extra_maps(shape, s, workspace=None):
