@@ -76,7 +76,7 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None):
     def step(number, i, joins=none):  # see jit/filters.py, speckle
         rows = [np.empty(width, np.int32) for _ in range(2)]
         return run([disp, small, parent, size, first, *rows, limit, joins],
-                   [number, edges[i], edges[i + 1], int(max_size), int(count == 1)])
+                   [number, edges[i], edges[i + 1], int(max_size)])
 
     runtime.run_stripes(lambda i, stop: step(0, i), count, count, work)
     if count > 1:

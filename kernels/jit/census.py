@@ -18,6 +18,14 @@ def spec(pixels, codes):
     return Spec(_make(dtype_of(codes).type), arrays, 5)
 
 
+@njit(**SERIAL)
+def _neighbour(image_p, y, i, size, width):
+    """The row of neighbour i (window order, the centre skipped) of image row y's census
+    windows: (width,) from image_p, edge-padded by size // 2."""
+    place = i + (i >= size * size // 2)
+    return image_p[y + place // size, place % size:place % size + width]
+
+
 def _make(code):
     """The worker for codes of numpy type ``code`` (a compile-time constant)."""
 
@@ -37,26 +45,19 @@ def _make(code):
         h = size // 2
         width = codes.shape[1] - 2 * pad
         groups = planes.shape[0]  # size * size - 1 is a multiple of 8 for odd sizes
-        middle = size * size // 2  # the centre's place in the window, skipped
         for y in range(y0, y1):
             padded = codes[y + pad]
             centre = image_p[y + h, h:h + width]
             for g in range(groups):
-                # Neighbours i = 8g .. 8g + 7 in window order: place q = i, past the
-                # centre i + 1; row q // size, column q % size.
-                i = 8 * g
-                q0, q1, q2, q3 = (i + (i >= middle), i + 1 + (i + 1 >= middle),
-                                  i + 2 + (i + 2 >= middle), i + 3 + (i + 3 >= middle))
-                q4, q5, q6, q7 = (i + 4 + (i + 4 >= middle), i + 5 + (i + 5 >= middle),
-                                  i + 6 + (i + 6 >= middle), i + 7 + (i + 7 >= middle))
-                n0 = image_p[y + q0 // size, q0 % size:q0 % size + width]
-                n1 = image_p[y + q1 // size, q1 % size:q1 % size + width]
-                n2 = image_p[y + q2 // size, q2 % size:q2 % size + width]
-                n3 = image_p[y + q3 // size, q3 % size:q3 % size + width]
-                n4 = image_p[y + q4 // size, q4 % size:q4 % size + width]
-                n5 = image_p[y + q5 // size, q5 % size:q5 % size + width]
-                n6 = image_p[y + q6 // size, q6 % size:q6 % size + width]
-                n7 = image_p[y + q7 // size, q7 % size:q7 % size + width]
+                i = 8 * g  # the group's first neighbour
+                n0, n1 = _neighbour(image_p, y, i, size, width), \
+                    _neighbour(image_p, y, i + 1, size, width)
+                n2, n3 = _neighbour(image_p, y, i + 2, size, width), \
+                    _neighbour(image_p, y, i + 3, size, width)
+                n4, n5 = _neighbour(image_p, y, i + 4, size, width), \
+                    _neighbour(image_p, y, i + 5, size, width)
+                n6, n7 = _neighbour(image_p, y, i + 6, size, width), \
+                    _neighbour(image_p, y, i + 7, size, width)
                 byte = planes[g]
                 for x in range(width):
                     c = centre[x]

@@ -27,9 +27,9 @@ def spec(kind):
         "lr": Spec(lr_consistent, ((I32, 2), (I32, 2), (U8, 2)), 4),
         # disp (H, W); small (H, W) uint8 out; parent, size (H*W,) int32; first (H,)
         # int64; here, above (W,) int32 scratch; max_diff (1,) float64; edges (n,) int64;
-        # sc: step, y0, y1, max_size, alone (see speckle)
+        # sc: step, y0, y1, max_size (see speckle)
         "speckle": Spec(speckle, ((F32, 2), (U8, 2), (I32, 1), (I32, 1), (I64, 1),
-                                  (I32, 1), (I32, 1), (F64, 1), (I64, 1)), 5),
+                                  (I32, 1), (I32, 1), (F64, 1), (I64, 1)), 4),
         # disp, out (H, W); window (size*size,) scratch; sc: y0, y1, size
         "median": Spec(median_valid, ((F32, 2), (F32, 2), (F32, 1)), 3),
         # disp, out (H, W); sc: y0, y1
@@ -156,10 +156,9 @@ def speckle_mark(disp, small, parent, size, first, max_diff, sc):
     """small[y, x] = 1 for the valid pixels of rows sc[0] <= y < sc[1] whose region has
     fewer than sc[2] pixels, once every region is whole: the rows' runs numbered again
     from first, in one pass with the marking (a run's verdict taken where it starts).
-    With other stripes at work (sc[3] = 0) the roots are found without shortening paths,
-    since stripes may then only read the forest; alone (sc[3] = 1), shortening them is
-    faster."""
-    limit, max_size, alone = max_diff[0], sc[2], sc[3]
+    The roots are found without shortening paths, so that stripes may run at once: they
+    only read the forest."""
+    limit, max_size = max_diff[0], sc[2]
     for y in range(sc[0], sc[1]):
         row = disp[y]
         previous = np.float32(np.nan)
@@ -170,12 +169,9 @@ def speckle_mark(disp, small, parent, size, first, max_diff, sc):
             valid = not np.isnan(v)
             if valid and not abs(v - previous) <= limit:  # a run starts (see _row_runs)
                 run += 1
-                if alone:
-                    root = _root(parent, run)
-                else:
-                    root = run
-                    while parent[root] != root:
-                        root = parent[root]
+                root = run
+                while parent[root] != root:
+                    root = parent[root]
                 verdict = size[root] < max_size
             small[y, x] = valid and verdict
             previous = v
@@ -186,7 +182,7 @@ def speckle_mark(disp, small, parent, size, first, max_diff, sc):
 def speckle(disp, small, parent, size, first, here, above, max_diff, edges, sc):
     """The speckle filter's three steps in one entry (one compile, not three): sc[0] = 0
     finds a stripe's regions (speckle_regions), 1 joins the stripes (speckle_join), 2
-    marks a stripe's small regions (speckle_mark); sc[1:] are y0, y1, max_size, alone."""
+    marks a stripe's small regions (speckle_mark); sc[1:] are y0, y1, max_size."""
     step = sc[0]
     if step == 0:
         return speckle_regions(disp, parent, size, first, here, above, max_diff, sc[1:3])
