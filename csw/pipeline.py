@@ -111,17 +111,19 @@ def confidence_map(min_cost, second, valid):
 
 def run(left, right, kernel_args, stages, confidence=False, workspace=None):
     """Run the pipeline: (disparity float32 (H, W) NaN invalid, confidence float32 (H, W),
-    the kernels' MatchResult).
+    the kernels' MatchResult).  The confidence is None when neither ``confidence`` nor a
+    stage asked for the second-best costs.
 
     left, right: uint8/uint16 (H, W).  kernel_args: csw.kernels.match's arguments (engine,
     window, range, cost, CSW).  stages: checked stage options (csw.params.stages of a
     resolved option set; see the module's docstring).
     confidence: compute the second-best costs for the confidence map even when no stage
-    needs them (else it is 0 where they are not computed).
+    needs them.
     workspace: a kernels.workspace.Workspace for the scratch that never leaves the call
-        (census codes, the right map, the masks); whole-image matches pass their thread's,
-        so that repeated matches reuse it.  None: fresh arrays (the tiled bands, whose
-        memory is planned).
+        (padded images or census codes, the integer maps, the masks); the returned
+        MatchResult's disparity and right map are then None.  Whole-image matches pass
+        their thread's, so that repeated matches reuse it.  None: fresh arrays (the tiled
+        bands, whose memory is planned).
     """
     disp, conf, raw = match_rows(left, right, kernel_args, stages, confidence, workspace)
     disp, conf = filter_map(disp, conf, stages, workspace, kernel_args.get("threads"))
@@ -157,15 +159,18 @@ def is_row_local(stages):
 
 def match_rows(left, right, kernel_args, stages, confidence=False, workspace=None):
     """The row-local stages: costs, CSW, the validity checks and subpixel.  Returns
-    (disparity float32 (H, W) NaN invalid, confidence float32 (H, W), MatchResult); row y
-    depends only on input rows y +- :func:`row_overlap`.  workspace: see :func:`run`."""
+    (disparity float32 (H, W) NaN invalid, confidence float32 (H, W) or None, MatchResult);
+    row y depends only on input rows y +- :func:`row_overlap`.  workspace: see
+    :func:`run`."""
     a, b = prefiltered(left, right, stages)
     raw = kernels.match(a, b, census_window=stages["census_window"],
                         extras=confidence or needs_extras(stages),
                         right_map=stages["lr_check"] is not None, workspace=workspace,
                         **kernel_args)
     invalid = kernels.invalid(kernel_args["dmin"])
-    valid = raw.disparity != invalid
+    valid = np.not_equal(raw.disparity, invalid,
+                         out=kernels.workspace.empty(workspace, "valid", raw.disparity.shape,
+                                                     np.bool_))
     if stages["lr_check"] is not None:
         valid &= lr_consistent(raw.disparity, raw.right_disparity, stages["lr_check"],
                                invalid, workspace, kernel_args.get("threads"))
@@ -182,11 +187,12 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
                                                 stages["subpixel"])).astype(np.float32)
     else:
         disp = raw.disparity.astype(np.float32)
-    disp[~valid] = np.nan
-    if raw.second_cost is None:  # not computed: no confidence to give
-        conf = np.zeros(disp.shape, np.float32)
-    else:
-        conf = confidence_map(raw.min_cost, raw.second_cost, valid)
+    if workspace is not None:
+        raw.disparity = None  # maybe the workspace's: not to be kept
+    # None when the second-best costs were not computed: no confidence to give.
+    conf = None if raw.second_cost is None else confidence_map(raw.min_cost, raw.second_cost,
+                                                               valid)
+    disp[np.logical_not(valid, out=valid)] = np.nan  # in place: no temporary mask
     return disp, conf, raw
 
 

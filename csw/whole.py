@@ -25,7 +25,8 @@ class Result:
     disparity: float32 (H, W), the disparity (subpixel where asked), NaN where invalid (no
         candidate, or refused by a validity stage or filter).
     confidence: float32 (H, W), 0..1: (second - best) / second of the costs, 0 where
-        invalid (all 0 unless the second-best costs were computed: see ``match``).
+        invalid (unless the second-best costs were computed, see ``match``, a read-only
+        map of zeros).
     min_cost:  int64 (H, W), the minimum cost m at the chosen d, -1 where no candidate.
     evaluated: candidates (pixel, d) whose cost was evaluated.
     candidates: candidates plain matching evaluates, so ``work_saved`` is CSW's share.
@@ -145,5 +146,8 @@ def match(left, right, want_confidence=False, **options):
                                               confidence=want_confidence,
                                               workspace=kernels.workspace.for_this_thread())
     seconds = time.perf_counter() - start
+    if confidence is None:  # not computed: zeros that take no memory (a fresh 4 bytes a
+        # pixel per match made glibc return and fault in the heap's top on every call)
+        confidence = np.broadcast_to(np.float32(0), disparity.shape)
     return Result(disparity, confidence, raw.min_cost, raw.evaluated, raw.candidates,
                   ready.settings, seconds, ready.compile_seconds)

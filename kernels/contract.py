@@ -48,14 +48,16 @@ def invalid(dmin):
     return INVALID if dmin >= 0 else NEG_INVALID
 
 
-def pad_edge(image, h, dtype=np.uint16):
+def pad_edge(image, h, dtype=np.uint16, out=None):
     """Copy of a (H, W) image padded by h on every side with its edge values (the
     contract's clamp), as ``dtype``: the window engine uses one uint16 kernel for 8- and
     16-bit input; the fast engine keeps 8-bit data 8-bit.  Written out rather than
     np.pad(mode="edge"), which costs about 45 us a call whatever the size (a sixth of a
-    small match's overhead)."""
+    small match's overhead).  out: a (H + 2h, W + 2h) array of ``dtype`` to write it in
+    (else a new one)."""
     height, width = image.shape
-    out = np.empty((height + 2 * h, width + 2 * h), dtype)
+    if out is None:
+        out = np.empty((height + 2 * h, width + 2 * h), dtype)
     core = out[h:h + height]
     core[:, h:h + width] = image
     core[:, :h] = core[:, h:h + 1]

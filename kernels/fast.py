@@ -98,7 +98,9 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
     rows: optional ascending row indices; the maps are then (n, W) for those rows.
-    workspace: a kernels.workspace.Workspace for the census codes and the right map.
+    workspace: a kernels.workspace.Workspace for the padded images (or census codes),
+        the disparity and the right map: the result's two maps are then the workspace's,
+        valid until its next match (for callers that use them at once).
     Other options as for match_window.
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     """
@@ -118,20 +120,23 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     if s.cost == CENSUS:  # the codes, written padded (and reversed) by the transform
         shape, codes = (height + 2 * h, width + 2 * h), census_dtype(census_window)
         left_p = census_transform(left, census_window, threads, pad=h,
-                                  out=empty(workspace, "census-left", shape, codes))
+                                  out=empty(workspace, "padded-left", shape, codes))
         right_rev = census_transform(right, census_window, threads, pad=h, reverse=True,
-                                     out=empty(workspace, "census-right", shape, codes))
+                                     out=empty(workspace, "padded-right", shape, codes))
         s = s._replace(cost=SHD)
-    else:
-        left_p = pad_edge(left, h, left.dtype)
-        right_rev = np.ascontiguousarray(pad_edge(right, h, right.dtype)[:, ::-1])
+    else:  # padding the reversed image is reversing the padded one
+        shape = (height + 2 * h, width + 2 * h)
+        left_p = pad_edge(left, h, left.dtype,
+                          out=empty(workspace, "padded-left", shape, left.dtype))
+        right_rev = pad_edge(right[:, ::-1], h, right.dtype,
+                             out=empty(workspace, "padded-right", shape, right.dtype))
     if shift:  # the right image padded `shift` columns more beyond its right edge
         right_rev = np.ascontiguousarray(np.pad(right_rev, ((0, 0), (shift, 0)), mode="edge"))
     pixels = left_p.dtype
     acc = accumulator_dtype(pixels, s.cost, s.window)
     run = native.entry("fast", variant(s.cost, pixels, s.window, s.csw, s.right_map,
                                        s.extras, s.dmin))
-    disp = np.empty((height, width), np.int32)
+    disp = empty(workspace, "disparity", (height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
     maps = extra_maps(disp.shape, s, workspace)
     evaluated = np.zeros(height, np.int64)

@@ -4,9 +4,13 @@ A fresh array of a few MB is not free on Linux: each of its pages faults in and 
 zeroed on first write, about 0.4 ms per MB measured here, and freeing it unmaps it
 again.  A cones-sized match (450 x 375, d 0..63) made and dropped about 9 MB of
 scratch, which cost a quarter of its time.  So the matches of one thread take their
-internal buffers (census codes, the right image's map, the filters' masks and forests)
-from that thread's Workspace, which keeps them for the next match, as StereoBM keeps its
-buffers in its matcher object.
+internal buffers (padded images or census codes, the integer disparity and the right
+image's map, the filters' masks and forests) from that thread's Workspace, which keeps
+them for the next match, as StereoBM keeps its buffers in its matcher object.  What a
+match returns is fresh; kept small, it stays in glibc's heap from call to call: a raw
+tsukuba match that also made and dropped its padded images, integer map, masks and a
+map of zero confidences faulted in about 500 pages a call, a third of its time, since
+glibc gave the heap's top back to the system after each.
 
 Rules that keep this safe:
 - a thread uses only its own workspace (:func:`for_this_thread`), so concurrent matches

@@ -4,6 +4,7 @@ never kept past the limit, and never changing a result."""
 import threading
 
 import numpy as np
+import pytest
 
 import csw
 from csw import kernels, params, pipeline
@@ -45,29 +46,44 @@ def test_each_thread_has_its_own_workspace():
     assert theirs[0] is not mine
 
 
-def test_matches_through_the_workspace_equal_fresh_ones(small_scene):
+@pytest.mark.parametrize("cost", ["census", "sad"])
+def test_matches_through_the_workspace_equal_fresh_ones(small_scene, cost):
     left, right = small_scene[:2]
     fresh = kernels.match(left, right, engine="fast", window=5, dmin=0, dmax=12,
-                          cost="census", right_map=True)
+                          cost=cost, right_map=True)
     ws = Workspace()
-    for _ in range(2):  # the second run reuses the first one's buffers
-        got = kernels.match(left, right, engine="fast", window=5, dmin=0, dmax=12,
-                            cost="census", right_map=True, workspace=ws)
-        np.testing.assert_array_equal(got.disparity, fresh.disparity)
-        np.testing.assert_array_equal(got.right_disparity, fresh.right_disparity)
-    assert ws.held() > 0
+    for pair in [(left, right), (right, left), (left, right)]:  # later runs reuse buffers
+        got = kernels.match(*pair, engine="fast", window=5, dmin=0, dmax=12, cost=cost,
+                            right_map=True, workspace=ws)
+    np.testing.assert_array_equal(got.disparity, fresh.disparity)
+    np.testing.assert_array_equal(got.right_disparity, fresh.right_disparity)
+    np.testing.assert_array_equal(got.min_cost, fresh.min_cost)
+    assert np.shares_memory(got.disparity, ws.empty("disparity", (1,), np.int32))
+    assert not np.shares_memory(got.min_cost, fresh.min_cost)  # returned: always fresh
 
 
-def test_results_of_csw_match_survive_the_next_match(small_scene):
+@pytest.mark.parametrize("preset", ["accurate", "raw"])
+def test_results_of_csw_match_survive_the_next_match(small_scene, preset):
     """What csw.match returns is the caller's: a later match on the same thread, of
     another size, leaves it as it was."""
     left, right = small_scene[:2]
-    first = csw.match(left, right, dmax=12)
-    kept = first.disparity.copy(), first.min_cost.copy()
-    csw.match(left[:40, :50], right[:40, :50], dmax=8)
-    csw.match(right, left, dmax=12)
+    first = csw.match(left, right, dmax=12, preset=preset, want_confidence=True)
+    kept = first.disparity.copy(), first.min_cost.copy(), first.confidence.copy()
+    assert kept[2].max() > 0
+    csw.match(left[:40, :50], right[:40, :50], dmax=8, preset=preset)
+    csw.match(right, left, dmax=12, preset=preset, want_confidence=True)
     np.testing.assert_array_equal(first.disparity, kept[0])
     np.testing.assert_array_equal(first.min_cost, kept[1])
+    np.testing.assert_array_equal(first.confidence, kept[2])
+
+
+def test_a_confidence_not_computed_is_a_read_only_map_of_zeros(small_scene):
+    left, right = small_scene[:2]
+    result = csw.match(left, right, dmax=12, preset="raw")
+    assert result.confidence.shape == result.shape
+    assert result.confidence.dtype == np.float32 and not result.confidence.any()
+    with pytest.raises(ValueError, match="read-only"):
+        result.confidence[0, 0] = 1
 
 
 def test_a_buffer_over_the_largest_is_never_kept():
