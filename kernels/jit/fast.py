@@ -24,11 +24,12 @@ from ..config import SERIAL
 from ..contract import INVALID, NEG_INVALID, RULE_UNIQUE
 from .common import blocked, ctpop, dtype_of, is_distinct, stop_requested
 
-# Disparity ranges up to this pick the minimum with packed keys (see select_row); with
-# the right map, up to the second (beyond it, two passes with the map in the second were
-# faster: 21 against 27 ns a pixel at 128 disparities, 17.5 against 16.3 at 64).
+# Disparity ranges up to this pick the minimum with packed keys (see select_row), with
+# or without the right map (beyond it, two passes with the map in the second were
+# faster).  With 32-bit keys, a census match of cones at 128 disparities took 10.3 ms
+# keyed against 11.5 in two passes (least of 41); at 256 without the map, 16.1 against
+# 16.5, so the limit stays where 64-bit keys had put it.
 KEYED_RANGE = 128
-KEYED_RANGE_RIGHT = 64
 
 # The scalars every stripe takes, in order (the entry's record).
 SCALARS = ("window", "dmin", "dmax", "tau", "rule", "uniqueness", "slack", "y0", "y1",
@@ -196,15 +197,17 @@ def _make(cost, acc, csw, right_map, extras, negative):
                 # improves compiles to masked stores.
                 best_r = right_best_rev[base:]
                 d_r = right_rev_d[base:]
-                if keyed and ndisp <= (KEYED_RANGE_RIGHT if right_map else KEYED_RANGE):
+                if keyed and ndisp <= KEYED_RANGE:
                     # One pass: the least of (sum << 16 | k) is the least sum at its
                     # smallest k.  Faster than two passes for short ranges (fewer loops
                     # per pixel), slower for long ones (32-bit lanes); 16-bit sums only.
+                    # The outer uint32 keeps the keys in 32-bit lanes: Numba types the
+                    # shift and the | as uint64, and without it the min ran in 64-bit ones.
                     key = np.uint32(0xFFFFFFFF)
                     for k in range(lo, n):
                         row_sums[k] = row_sums[k] + add[k] - sub[k]
-                        key = min(key, (np.uint32(row_sums[k]) << np.uint32(16)) |
-                                  np.uint32(k))
+                        key = min(key, np.uint32((np.uint32(row_sums[k]) << np.uint32(16)) |
+                                                 np.uint32(k)))
                     best = acc(key >> np.uint32(16))
                     first = np.int16(key & np.uint32(0xFFFF)) if n > lo else none
                     if right_map:  # a pass of its own

@@ -78,10 +78,10 @@ def test_wrapping_uint16_sums_stay_exact_at_the_limit():
 @pytest.mark.parametrize("ndisp", [40, 100, 200])
 @pytest.mark.parametrize("cost", ["sad", "census"])
 def test_every_map_equal_across_the_selection_paths(ndisp, cost):
-    """The fast engine picks the minimum in one of three ways by range and maps (packed
-    keys up to 64 or 128 disparities, else two passes, the right map beside either: see
-    KEYED_RANGE in kernels/jit/fast.py); every map of each equals the window engine's on
-    ranges that take each way, with and without CSW."""
+    """The fast engine picks the minimum in one of two ways by range (packed keys up to
+    128 disparities, else two passes, the right map beside either: see KEYED_RANGE in
+    kernels/jit/fast.py); every map of each equals the window engine's on ranges that
+    take each way, with and without CSW."""
     rng = np.random.default_rng(ndisp)
     left = rng.integers(0, 4, (12, ndisp + 60)).astype(np.uint8)  # few levels: ties
     right = np.roll(left, -ndisp // 3, axis=1) ^ (rng.random(left.shape) < 0.1)
