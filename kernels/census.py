@@ -39,7 +39,7 @@ def census_transform(image, size, threads=None, pad=0, reverse=False, out=None):
     n_threads = runtime.thread_count(threads)
     work = height * width * size * size
     count = 1 if work < runtime.DIRECT_WORK else min(n_threads, height)
-    edges = np.linspace(0, height, count + 1).round().astype(np.int64)
+    edges = runtime.even_split(height, count)
 
     def stripe(i, stop):
         planes = np.empty(((size * size - 1) // 8, width), np.uint8)

@@ -5,6 +5,7 @@ contract"). This module holds the part they share: the public names of the costs
 validation that runs once at the door, and the result type.
 """
 
+import functools
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -132,6 +133,7 @@ def dtype_of(name):
     return np.dtype(bool) if name[0] == "b" else np.dtype(kinds[name[0]] + name[1:])
 
 
+@functools.cache
 def census_dtype(census_window):
     """The narrowest unsigned type holding a census code of this window's bits."""
     bits = census_window * census_window - 1
@@ -245,6 +247,7 @@ def resolve_uniqueness(cost, uniqueness):
     return DEFAULT_UNIQUENESS[cost] if uniqueness is None else uniqueness
 
 
+@functools.lru_cache(maxsize=256)  # per image size and range: a batch repeats them
 def candidate_count(width, dmin, dmax):
     """Candidates plain matching evaluates on one row of ``width`` pixels."""
     # Pixel x has the candidates d in [max(dmin, x - width + 1), min(dmax, x)]: the

@@ -21,6 +21,8 @@ Layers:
   jit/fast.py     the per-stripe and per-row workers, compiled once per variant
 """
 
+import functools
+
 import numpy as np
 
 from . import native, runtime
@@ -43,6 +45,7 @@ from .workspace import empty
 COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
 
 
+@functools.cache
 def accumulator_dtype(image_dtype, cost, window):
     """The narrowest integer type that holds every window cost exactly."""
     top = np.iinfo(image_dtype).max
@@ -85,7 +88,7 @@ def stripe_bounds(height, window, threads, rows):
         run = int(end - start)
         per_thread = 1 if threads == 1 else max(1, min(4, run // (threads * 16 * window)))
         count = max(1, min(threads * per_thread, run))
-        edges = start + np.linspace(0, run, count + 1).round().astype(np.int64)
+        edges = start + runtime.even_split(run, count)
         stripes.append(np.stack([edges[:-1], edges[1:]], axis=1))
     return np.concatenate(stripes).astype(np.int64)
 

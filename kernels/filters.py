@@ -24,7 +24,7 @@ def _by_rows(kind, arrays, height, extra=(), scratch=None, threads=None, per_pix
     run = native.entry("filters", (kind,))
     work = arrays[0].size * per_pixel
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
-    edges = np.linspace(0, height, count + 1).round().astype(np.int64)
+    edges = runtime.even_split(height, count)
 
     def stripe(i, stop):
         more = [scratch()] if scratch else []
@@ -68,7 +68,7 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None):
     limit = np.array([max_diff], np.float64)
     work = disp.size * SPECKLE_WORK
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
-    edges = np.linspace(0, height, count + 1).round().astype(np.int64)
+    edges = runtime.even_split(height, count)
 
     run = native.entry("filters", ("speckle",))
     none = np.empty(0, np.int64)

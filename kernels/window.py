@@ -110,7 +110,7 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
         n_threads = 1
     # Rows cost alike: a few stripes per thread balance the load.
     count = max(1, min(rows.size, n_threads * 4 if n_threads > 1 else 1))
-    edges = np.linspace(0, rows.size, count + 1).round().astype(np.int64)
+    edges = runtime.even_split(rows.size, count)
 
     def stripe(i, stop):
         scratch = [np.empty(width, np.int32), np.empty(ndisp, np.int64),
