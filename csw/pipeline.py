@@ -27,7 +27,7 @@ invalid or without a second candidate): how distinct the match is.
 import numpy as np
 
 from . import kernels
-from .kernels.filters import fill_background, lr_consistent, median_valid, speckle_mask
+from .kernels.filters import fill_background, median_valid, speckle_mask
 
 
 def xsobel(image, cap):
@@ -56,10 +56,9 @@ def entries(args, stages, dtype, confidence=False):
     from .kernels.filters import entries as filter_entries
 
     return kernels.entries(args["engine"], args["cost"], dtype, args["window"],
-                           stages["census_window"], args.get("csw", False),
-                           stages["lr_check"] is not None,
-                           confidence or needs_extras(stages),
-                           args.get("dmin", 0)) + filter_entries(stages)
+                           stages["census_window"], args.get("csw", False), False,
+                           confidence or needs_extras(stages), args.get("dmin", 0),
+                           lr_check=stages["lr_check"] is not None) + filter_entries(stages)
 
 
 def needs_extras(stages):
@@ -165,16 +164,14 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
     a, b = prefiltered(left, right, stages)
     raw = kernels.match(a, b, census_window=stages["census_window"],
                         extras=confidence or needs_extras(stages),
-                        right_map=stages["lr_check"] is not None, workspace=workspace,
-                        **kernel_args)
+                        lr_check=stages["lr_check"], workspace=workspace, **kernel_args)
     invalid = kernels.invalid(kernel_args["dmin"])
     valid = np.not_equal(raw.disparity, invalid,
                          out=kernels.workspace.empty(workspace, "valid", raw.disparity.shape,
                                                      np.bool_))
     if stages["lr_check"] is not None:
-        valid &= lr_consistent(raw.disparity, raw.right_disparity, stages["lr_check"],
-                               invalid, workspace, kernel_args.get("threads"))
-        raw.right_disparity = None  # maybe the workspace's: not to be kept
+        valid &= raw.lr_valid
+        raw.lr_valid = None  # maybe the workspace's: not to be kept
     if stages["uniqueness_ratio"] is not None:
         valid &= distinct(raw.min_cost, raw.second_cost, stages["uniqueness_ratio"])
     if stages["texture_threshold"] is not None:

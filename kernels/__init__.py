@@ -38,9 +38,11 @@ def match(left, right, *, engine, **options):
     return _engines()[engine](left, right, **options)
 
 
-def entries(engine, cost, pixels, window, census_window, csw, right_map, extras, dmin=0):
+def entries(engine, cost, pixels, window, census_window, csw, right_map, extras, dmin=0,
+            lr_check=False):
     """The compiled entries (kernels/native.py) a match with these settings loads: its
-    census transform, if any, and its engine's variant."""
+    census transform, if any, its engine's variant, and the window engine's left-right
+    check (the fast engine makes it in its rows).  lr_check: whether there is one."""
     from . import census, fast
     from . import window as window_engine
     from .contract import SHD
@@ -50,8 +52,9 @@ def entries(engine, cost, pixels, window, census_window, csw, right_map, extras,
     if cost == "census":
         compared, code = contract.census_dtype(census_window), SHD
     module = fast if engine == "fast" else window_engine
-    return census.entries(pixels, cost, census_window) + \
-        module.entries(code, compared, window, csw, right_map, extras, dmin)
+    check = [("filters", ("lr",))] if lr_check and engine != "fast" else []
+    return census.entries(pixels, cost, census_window) + check + \
+        module.entries(code, compared, window, csw, right_map or lr_check, extras, dmin)
 
 
 def __getattr__(name):

@@ -86,6 +86,9 @@ class MatchResult:
     right_disparity: int32 (H, W), for each right pixel its best left match's d over the
         evaluated candidates (the smallest d among equal costs; -1 where none): the right
         image's map, for the left-right check.
+    With ``lr_check`` N (else None):
+    lr_valid: bool (H, W), the left-right check: d is valid and the right map at x - d
+        holds a d' with |d - d'| <= N (filters.lr_consistent on the two maps).
     """
 
     disparity: np.ndarray
@@ -96,6 +99,7 @@ class MatchResult:
     prev_cost: np.ndarray | None = None
     next_cost: np.ndarray | None = None
     right_disparity: np.ndarray | None = None
+    lr_valid: np.ndarray | None = None
 
     @property
     def work_saved(self) -> float:
@@ -118,7 +122,14 @@ class Setup(NamedTuple):
     uniqueness: int  # percent, for RULE_UNIQUE
     slack: int  # a claim by pixel x' binds pixel x only when x - x' > slack
     extras: bool  # also compute MatchResult's second/prev/next costs
-    right_map: bool  # also compute MatchResult's right_disparity (for the LR check)
+    right_map: bool  # also return MatchResult's right_disparity
+    lr_check: int  # -1, or the limit of MatchResult's lr_valid (the left-right check)
+
+    @property
+    def right_costs(self):
+        """Whether the right image's best matches are tracked: for its map, or for the
+        left-right check made from it."""
+        return self.right_map or self.lr_check >= 0
 
 
 def dtype_name(dtype):
@@ -161,7 +172,7 @@ def _as_image(name, image):
 
 def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
              uniqueness=None, slack=None, rows=None, census_window=DEFAULT_CENSUS_WINDOW,
-             extras=False, right_map=False):
+             extras=False, right_map=False, lr_check=None):
     """Check the inputs once and return ``(left, right, Setup, rows)``; raise ValueError.
 
     left, right: uint8 or uint16 (H, W), equal shapes and dtypes.  rows: int64 (n,).
@@ -223,8 +234,13 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
         if census_window < 3 or census_window % 2 == 0:
             raise ValueError(f"census window must be odd and at least 3, got {census_window}")
         census_dtype(census_window)  # raises when over 64 bits
+    if lr_check is None:
+        lr_check = -1
+    elif isinstance(lr_check, bool) or int(lr_check) != lr_check or lr_check < 0:
+        raise ValueError(f"lr_check must be a whole number of pixels >= 0 (or None), got "
+                         f"{lr_check!r}")
     setup = Setup(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule],
-                  int(uniqueness), slack, bool(extras), bool(right_map))
+                  int(uniqueness), slack, bool(extras), bool(right_map), int(lr_check))
     return left, right, setup, rows
 
 

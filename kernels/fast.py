@@ -96,14 +96,18 @@ def stripe_bounds(height, window, threads, rows):
 def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                rule="literal", uniqueness=None, slack=None, rows=None, threads=None,
                census_window=DEFAULT_CENSUS_WINDOW, extras=False, right_map=False,
-               workspace=None):
+               lr_check=None, workspace=None):
     """Match a rectified pair with running sums (same contract as match_window).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
     rows: optional ascending row indices; the maps are then (n, W) for those rows.
+    lr_check: the left-right check is made at the end of each row, from the right
+        image's best matches as they stand then, so the right map is never stored
+        unless ``right_map`` asks for it.
     workspace: a kernels.workspace.Workspace for the padded images (or census codes),
-        the disparity and the right map: the result's two maps are then the workspace's,
-        valid until its next match (for callers that use them at once).
+        the disparity, the right map and the check: the result's maps but min_cost are
+        then the workspace's, valid until its next match (for callers that use them at
+        once).
     Other options as for match_window.
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     """
@@ -111,7 +115,7 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                                     cost=cost, csw=csw, tau=tau, rule=rule,
                                     uniqueness=uniqueness, slack=slack, rows=rows,
                                     census_window=census_window, extras=extras,
-                                    right_map=right_map)
+                                    right_map=right_map, lr_check=lr_check)
     height, width = left.shape
     ndisp = s.dmax - s.dmin + 1
     if ndisp > np.iinfo(np.int16).max:
@@ -137,11 +141,13 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
         right_rev = np.ascontiguousarray(np.pad(right_rev, ((0, 0), (shift, 0)), mode="edge"))
     pixels = left_p.dtype
     acc = accumulator_dtype(pixels, s.cost, s.window)
-    run = native.entry("fast", variant(s.cost, pixels, s.window, s.csw, s.right_map,
+    run = native.entry("fast", variant(s.cost, pixels, s.window, s.csw, s.right_costs,
                                        s.extras, s.dmin))
     disp = empty(workspace, "disparity", (height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
     maps = extra_maps(disp.shape, s, workspace)
+    lr_valid = empty(workspace, "lr-valid", (height if s.lr_check >= 0 else 1, width),
+                     np.uint8)
     evaluated = np.zeros(height, np.int64)
     work = rows.size * width * ndisp
     if work < runtime.DIRECT_WORK:
@@ -156,16 +162,19 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                    np.empty(width + shift, np.int32), np.empty(width + shift, acc),
                    np.empty(width + shift, np.int16)]
         y0, y1 = stripes[i]
-        return run([left_p, right_rev, *scratch, disp, min_cost, *maps, evaluated, stop],
+        return run([left_p, right_rev, *scratch, disp, min_cost, *maps, lr_valid, evaluated,
+                    stop],
                    [s.window, s.dmin, s.dmax, s.tau, s.rule, s.uniqueness, s.slack, y0, y1,
-                    never])
+                    never, s.right_map, s.lr_check])
 
     runtime.run_stripes(stripe, len(stripes), n_threads, work)
     if rows.size != height:  # only the sampled rows were computed
         disp, min_cost = disp[rows], min_cost[rows]
         maps = tuple(m[rows] if m.shape[0] == height else m for m in maps)
+        lr_valid = lr_valid[rows] if s.lr_check >= 0 else lr_valid
     plain = candidate_count(width, s.dmin, s.dmax) * rows.size
-    return result(disp, min_cost, int(evaluated[rows].sum()), plain, s, maps)
+    return result(disp, min_cost, int(evaluated[rows].sum()), plain, s, maps,
+                  lr_valid.view(np.bool_) if s.lr_check >= 0 else None)
 
 
 def entries(cost, pixels, window, csw, right_map, extras, dmin=0):

@@ -107,9 +107,9 @@ def fill_background(disp, threads=None):
 
 
 def entries(stages):
-    """The (kernel, variant) entries the filters of ``stages`` load."""
+    """The (kernel, variant) entries the 2-D filters of ``stages`` load (the left-right
+    check is the engines', see kernels.entries)."""
     kinds = [kind for kind, used in (
-        ("lr", stages.get("lr_check") is not None),
         ("speckle", stages.get("speckle_size", 0) > 0),
         ("median", bool(stages.get("median", 0))),
         ("fill", stages.get("fill", "none") == "background")) if used]

@@ -25,29 +25,31 @@ from .contract import (
     pad_edge,
     validate,
 )
+from .filters import lr_consistent
 from .workspace import empty
 
 COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
 
 
-def extra_maps(shape, s, workspace=None):
+def extra_maps(shape, s, workspace=None, right=None):
     """(second, prev, next, right) outputs: full maps where asked for (s.extras for the
-    first three, s.right_map for the last), else 1-row dummies the workers never write
-    (the entries take arrays of the right type either way).  The right map is taken from
-    ``workspace`` when one is given (see match_fast)."""
+    first three; for the last, ``right``, by default s.right_map), else 1-row dummies the
+    workers never write (the entries take arrays of the right type either way).  The
+    right map is taken from ``workspace`` when one is given (see match_fast)."""
     rows = shape[0] if s.extras else 1
     costs = tuple(np.full((rows, shape[1]), -1, np.int64) for _ in range(3))
-    right = empty(workspace, "right-disparity", (shape[0] if s.right_map else 1, shape[1]),
+    right = s.right_map if right is None else right
+    right = empty(workspace, "right-disparity", (shape[0] if right else 1, shape[1]),
                   np.int32)
     right.fill(invalid(s.dmin))
     return (*costs, right)
 
 
-def result(disp, min_cost, evaluated, plain, s, maps):
+def result(disp, min_cost, evaluated, plain, s, maps, lr_valid=None):
     """The MatchResult, with the extra maps only where they were computed."""
     costs = maps[:3] if s.extras else (None,) * 3
     return MatchResult(disp, min_cost, evaluated, plain, *costs,
-                       maps[3] if s.right_map else None)
+                       maps[3] if s.right_map else None, lr_valid)
 
 
 def padded_type(pixels):
@@ -70,7 +72,7 @@ def entries(cost, pixels, window, csw, right_map, extras, dmin=0):
 def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                  rule="literal", uniqueness=None, slack=None, rows=None, threads=None,
                  census_window=DEFAULT_CENSUS_WINDOW, extras=False, right_map=False,
-                 workspace=None):
+                 lr_check=None, workspace=None):
     """Match a rectified pair with full window sums (the contract: docs/engines.md).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
@@ -81,9 +83,11 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
         (a claim by x' blocks x only when x - x' > slack); for studies of the rule.
     rows: optional int64 (n,) ascending row indices; then the maps are (n, W).
     extras: also return the second-best and neighbour costs; right_map: the right image's
-        map from the same costs (see MatchResult).
-    workspace: a kernels.workspace.Workspace to take the right map from; it is then
-        valid until the workspace's next match (for callers that use it at once).
+        map from the same costs; lr_check: a limit N for the left-right check on the two
+        maps (see MatchResult).
+    workspace: a kernels.workspace.Workspace to take the right map and the check from;
+        they are then valid until the workspace's next match (for callers that use them
+        at once).
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     Raises ValueError, with a message that says how to fix it, on bad input.
     """
@@ -91,19 +95,19 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                                     cost=cost, csw=csw, tau=tau, rule=rule,
                                     uniqueness=uniqueness, slack=slack, rows=rows,
                                     census_window=census_window, extras=extras,
-                                    right_map=right_map)
+                                    right_map=right_map, lr_check=lr_check)
     n_threads = runtime.thread_count(threads)
     left, right, s = prepare(left, right, s, census_window, threads)
     h = s.window // 2
     dtype = padded_type(left.dtype)
     left_p, right_p = pad_edge(left, h, dtype), pad_edge(right, h, dtype)
-    run = native.entry("window", variant(s.cost, left.dtype, s.csw, s.right_map, s.extras,
-                                         s.dmin))
+    run = native.entry("window", variant(s.cost, left.dtype, s.csw, s.right_costs,
+                                         s.extras, s.dmin))
     width = left.shape[1]
     ndisp = s.dmax - s.dmin + 1
     disp = np.empty((rows.size, width), np.int32)
     min_cost = np.empty((rows.size, width), np.int64)
-    maps = extra_maps(disp.shape, s, workspace)
+    maps = extra_maps(disp.shape, s, workspace, right=s.right_costs)
     evaluated = np.zeros(rows.size, np.int64)
     work = rows.size * width * ndisp * s.window ** 2
     if work < runtime.DIRECT_WORK:
@@ -121,4 +125,8 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
 
     runtime.run_stripes(stripe, count, n_threads, work)
     plain = candidate_count(width, s.dmin, s.dmax) * rows.size
-    return result(disp, min_cost, int(evaluated.sum()), plain, s, maps)
+    lr_valid = None
+    if s.lr_check >= 0:  # the paper's engine: a pass of its own over the two maps
+        lr_valid = lr_consistent(disp, maps[3], s.lr_check, invalid(s.dmin), workspace,
+                                 threads)
+    return result(disp, min_cost, int(evaluated.sum()), plain, s, maps, lr_valid)

@@ -33,7 +33,7 @@ KEYED_RANGE = 128
 
 # The scalars every stripe takes, in order (the entry's record).
 SCALARS = ("window", "dmin", "dmax", "tau", "rule", "uniqueness", "slack", "y0", "y1",
-           "never")
+           "never", "keep_right", "lr_limit")
 
 
 def spec(cost, pixels, accumulator, csw, right_map, extras, negative=False):
@@ -49,6 +49,7 @@ def spec(cost, pixels, accumulator, csw, right_map, extras, negative=False):
               (i32, 1), (acc, 1), (np.dtype(np.int16), 1),  # claims, right_best, right_d (W,)
               (i32, 2), (i64, 2),  # disp, min_cost (H, W)
               (i64, 2), (i64, 2), (i64, 2), (i32, 2),  # second, prev, next, right_disp
+              (np.dtype(np.uint8), 2),  # lr_valid (H, W)
               (i64, 1), (np.dtype(np.uint8), 1))  # evaluated (H,), stop (1,)
     return Spec(_make(cost, acc.type, bool(csw), bool(right_map), bool(extras),
                       bool(negative)), arrays, len(SCALARS))
@@ -111,7 +112,7 @@ def _make(cost, acc, csw, right_map, extras, negative):
 
     @njit(**SERIAL)
     def select_row(col_sums, row_sums, never, sc, claims_rev, right_best_rev, right_rev_d,
-                   disp_row, cost_row, second_row, prev_row, next_row, right_row):
+                   disp_row, cost_row, second_row, prev_row, next_row, right_row, lr_row):
         """Slide the row sums along one row and pick each pixel's disparity in the
         contract's order: x ascending, and the smallest d among the minimum costs.
 
@@ -125,8 +126,10 @@ def _make(cost, acc, csw, right_map, extras, negative):
         right_best_rev: (W,) accumulator type, right_rev_d: int16 (W,): the least cost
             seen for each right pixel and its d - dmin, reversed like claims_rev.
         disp_row: int32 (W,) out.  cost_row: int64 (W,) out.  second_row, prev_row,
-            next_row: int64 (W,) out with extras; right_row: int32 (W,) out with
-            right_map.  Returns the number of candidates evaluated (those not blocked).
+            next_row: int64 (W,) out with extras.  With right_map: right_row, int32 (W,),
+            the right image's map, out where sc[keep_right]; lr_row, uint8 (W,), the
+            left-right check at sc[lr_limit], out where that is >= 0 (see the row's end).
+            Returns the number of candidates evaluated (those not blocked).
 
         The loops are written out here rather than in helpers: Numba's IR inlining of a
         helper kept LLVM from fusing them, and cost about 1.7x in time.
@@ -282,15 +285,27 @@ def _make(cost, acc, csw, right_map, extras, negative):
                     np.int64(best), np.int64(second), uniqueness)):
                 continue
             claims_rev[base + first] = x
-        if right_map:
+        if right_map and sc[10]:
             for xr in range(width):
                 k = right_rev_d[width - 1 - xr + shift]
                 right_row[xr] = invalid if k < 0 else dmin + k
+        limit = sc[11]
+        if right_map and limit >= 0:
+            # The left-right check while the row's two maps are in cache, as the filter
+            # lr_consistent does it on whole maps: d is kept where the right pixel x - d
+            # has a match, dmin + k, within the limit of it.
+            for x in range(width):
+                d = disp_row[x]
+                ok = False
+                if d != invalid:
+                    k = right_rev_d[width - 1 - x + d + shift]
+                    ok = k >= 0 and abs(d - (dmin + k)) <= limit
+                lr_row[x] = ok
         return evaluated
 
     @njit(**SERIAL)
     def stripe(left_p, right_rev, col_sums, row_sums, claims, right_best, right_d, disp,
-               min_cost, second, prev, nxt, right_disp, evaluated, stop, sc):
+               min_cost, second, prev, nxt, right_disp, lr_valid, evaluated, stop, sc):
         """Match image rows sc[y0] <= y < sc[y1] into disp, min_cost (and the optional
         maps) and evaluated (per row); return early, before a row, once stop[0] is set.
 
@@ -312,10 +327,11 @@ def _make(cost, acc, csw, right_map, extras, negative):
                 columns_move(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
                              right_rev[y - 1], col_sums, dmin)
             e = y if extras else 0
-            r = y if right_map else 0
+            r = y if right_map and sc[10] else 0
+            v = y if right_map and sc[11] >= 0 else 0
             evaluated[y] = select_row(col_sums, row_sums, never, sc, claims, right_best,
                                       right_d, disp[y], min_cost[y], second[e], prev[e],
-                                      nxt[e], right_disp[r])
+                                      nxt[e], right_disp[r], lr_valid[v])
         return 0
 
     return stripe
