@@ -8,8 +8,10 @@ window, after OpenCV's stereobm.cpp (see kernels/fast.py for the layout and the 
                 one pixel by adding V[x + w - 1] and subtracting V[x - 1].
 
 A variant fixes at compile time the cost, the pixel and accumulator types, and which of
-the optional results a pass makes (CSW's B-map, the right image's map, the second-best
-and neighbour costs), so that a pass carries no code and pays no time for the others.
+the optional results a pass makes (CSW's B-map, the right image's best matches, the
+second-best and neighbour costs), so that a pass carries no code and pays no time for
+the others.  From the right image's best matches a row stores its map, its left-right
+check, or both, as the scalars keep_right and lr_limit say.
 
 Layers (the entry and the parallel driver over stripes are in kernels/fast.py):
   stripe        per-stripe worker: column sums down the rows, one row at a time
@@ -137,6 +139,7 @@ def _make(cost, acc, csw, right_map, extras, negative):
         width = disp_row.shape[0]
         ndisp = col_sums.shape[1]
         w, dmin, tau, rule, uniqueness, slack = sc[0], sc[1], sc[3], sc[4], sc[5], sc[6]
+        keep_right, lr_limit = sc[10], sc[11]
         shift = -dmin if negative else 0  # the right-pixel arrays' extra front entries
         if csw:
             claims_rev[:] = -1
@@ -285,12 +288,11 @@ def _make(cost, acc, csw, right_map, extras, negative):
                     np.int64(best), np.int64(second), uniqueness)):
                 continue
             claims_rev[base + first] = x
-        if right_map and sc[10]:
+        if right_map and keep_right:
             for xr in range(width):
                 k = right_rev_d[width - 1 - xr + shift]
                 right_row[xr] = invalid if k < 0 else dmin + k
-        limit = sc[11]
-        if right_map and limit >= 0:
+        if right_map and lr_limit >= 0:
             # The left-right check while the row's two maps are in cache, as the filter
             # lr_consistent does it on whole maps: d is kept where the right pixel x - d
             # has a match, dmin + k, within the limit of it.
@@ -299,7 +301,7 @@ def _make(cost, acc, csw, right_map, extras, negative):
                 ok = False
                 if d != invalid:
                     k = right_rev_d[width - 1 - x + d + shift]
-                    ok = k >= 0 and abs(d - (dmin + k)) <= limit
+                    ok = k >= 0 and abs(d - (dmin + k)) <= lr_limit
                 lr_row[x] = ok
         return evaluated
 
@@ -327,8 +329,8 @@ def _make(cost, acc, csw, right_map, extras, negative):
                 columns_move(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
                              right_rev[y - 1], col_sums, dmin)
             e = y if extras else 0
-            r = y if right_map and sc[10] else 0
-            v = y if right_map and sc[11] >= 0 else 0
+            r = y if right_map and sc[10] else 0  # keep_right
+            v = y if right_map and sc[11] >= 0 else 0  # lr_limit
             evaluated[y] = select_row(col_sums, row_sums, never, sc, claims, right_best,
                                       right_d, disp[y], min_cost[y], second[e], prev[e],
                                       nxt[e], right_disp[r], lr_valid[v])
