@@ -146,8 +146,8 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     disp = empty(workspace, "disparity", (height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
     maps = extra_maps(disp.shape, s, workspace)
-    lr_valid = empty(workspace, "lr-valid", (height if s.lr_check >= 0 else 1, width),
-                     np.uint8)
+    checked = s.lr_check >= 0
+    lr_valid = empty(workspace, "lr-valid", (height if checked else 1, width), np.uint8)
     evaluated = np.zeros(height, np.int64)
     work = rows.size * width * ndisp
     if work < runtime.DIRECT_WORK:
@@ -170,11 +170,10 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     runtime.run_stripes(stripe, len(stripes), n_threads, work)
     if rows.size != height:  # only the sampled rows were computed
         disp, min_cost = disp[rows], min_cost[rows]
-        maps = tuple(m[rows] if m.shape[0] == height else m for m in maps)
-        lr_valid = lr_valid[rows] if s.lr_check >= 0 else lr_valid
+        *maps, lr_valid = (m[rows] if m.shape[0] == height else m for m in (*maps, lr_valid))
     plain = candidate_count(width, s.dmin, s.dmax) * rows.size
     return result(disp, min_cost, int(evaluated[rows].sum()), plain, s, maps,
-                  lr_valid.view(np.bool_) if s.lr_check >= 0 else None)
+                  lr_valid.view(np.bool_) if checked else None)
 
 
 def entries(cost, pixels, window, csw, right_map, extras, dmin=0):

@@ -38,11 +38,11 @@ def extra_maps(shape, s, workspace=None, right=None):
     right map is taken from ``workspace`` when one is given (see match_fast)."""
     rows = shape[0] if s.extras else 1
     costs = tuple(np.full((rows, shape[1]), -1, np.int64) for _ in range(3))
-    right = s.right_map if right is None else right
-    right = empty(workspace, "right-disparity", (shape[0] if right else 1, shape[1]),
-                  np.int32)
-    right.fill(invalid(s.dmin))
-    return (*costs, right)
+    stored = s.right_map if right is None else right
+    right_map = empty(workspace, "right-disparity", (shape[0] if stored else 1, shape[1]),
+                      np.int32)
+    right_map.fill(invalid(s.dmin))
+    return (*costs, right_map)
 
 
 def result(disp, min_cost, evaluated, plain, s, maps, lr_valid=None):

@@ -1,5 +1,5 @@
 """Helpers shared by the kernels' workers: exact bit counts, the stop flag, the CSW
-claim test and the unique rule's distinctness test."""
+claim test, the unique rule's distinctness test and the left-right check of a pixel."""
 
 from numba import njit, types
 from numba.extending import intrinsic, overload
@@ -55,6 +55,13 @@ def _stop_requested_compiled(stop):
 def blocked(claim, x, slack):
     """Whether a claim (the claimant's column, or -1) blocks pixel x: x - claimant > slack."""
     return claim >= 0 and x - claim > slack
+
+
+@njit(**SERIAL)
+def lr_agrees(d, back, limit, invalid):
+    """The left-right check of one pixel: its disparity d and its right pixel's own
+    match back are both valid (not ``invalid``) and differ by at most limit."""
+    return d != invalid and back != invalid and abs(d - back) <= limit
 
 
 @njit(**SERIAL)

@@ -24,7 +24,7 @@ from numba import njit
 
 from ..config import SERIAL
 from ..contract import INVALID, NEG_INVALID, RULE_UNIQUE
-from .common import blocked, ctpop, dtype_of, is_distinct, stop_requested
+from .common import blocked, ctpop, dtype_of, is_distinct, lr_agrees, stop_requested
 
 # Disparity ranges up to this pick the minimum with packed keys (see select_row), with
 # or without the right map (beyond it, two passes with the map in the second were
@@ -294,15 +294,15 @@ def _make(cost, acc, csw, right_map, extras, negative):
                 right_row[xr] = invalid if k < 0 else dmin + k
         if right_map and lr_limit >= 0:
             # The left-right check while the row's two maps are in cache, as the filter
-            # lr_consistent does it on whole maps: d is kept where the right pixel x - d
-            # has a match, dmin + k, within the limit of it.
+            # lr_consistent makes it on whole maps (the right pixel x - d's own match is
+            # dmin + k, k from the reversed right_rev_d).
             for x in range(width):
                 d = disp_row[x]
-                ok = False
+                back = invalid
                 if d != invalid:
                     k = right_rev_d[width - 1 - x + d + shift]
-                    ok = k >= 0 and abs(d - (dmin + k)) <= lr_limit
-                lr_row[x] = ok
+                    back = invalid if k < 0 else dmin + k
+                lr_row[x] = lr_agrees(d, back, lr_limit, invalid)
         return evaluated
 
     @njit(**SERIAL)
@@ -318,6 +318,7 @@ def _make(cost, acc, csw, right_map, extras, negative):
         """
         w, dmin, y0, y1 = sc[0], sc[1], sc[7], sc[8]
         never = acc(sc[9])
+        keep_right, lr_limit = sc[10], sc[11]
         col_sums[:] = 0
         for a in range(w):  # the window of padded rows y0 .. y0 + w - 1, each added once
             columns_add(left_p[y0 + a], right_rev[y0 + a], col_sums, dmin)
@@ -329,8 +330,8 @@ def _make(cost, acc, csw, right_map, extras, negative):
                 columns_move(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
                              right_rev[y - 1], col_sums, dmin)
             e = y if extras else 0
-            r = y if right_map and sc[10] else 0  # keep_right
-            v = y if right_map and sc[11] >= 0 else 0  # lr_limit
+            r = y if right_map and keep_right else 0
+            v = y if right_map and lr_limit >= 0 else 0
             evaluated[y] = select_row(col_sums, row_sums, never, sc, claims, right_best,
                                       right_d, disp[y], min_cost[y], second[e], prev[e],
                                       nxt[e], right_disp[r], lr_valid[v])

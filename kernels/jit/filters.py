@@ -13,6 +13,7 @@ import numpy as np
 from numba import njit
 
 from ..config import SERIAL
+from .common import lr_agrees
 
 F32, I32, I64, U8, F64 = (np.dtype(t) for t in (np.float32, np.int32, np.int64, np.uint8,
                                                  np.float64))
@@ -47,11 +48,8 @@ def lr_consistent(disp, right_disp, valid, sc):
     for y in range(sc[0], sc[1]):
         for x in range(width):
             d = disp[y, x]
-            ok = False
-            if d != invalid:
-                back = right_disp[y, x - d]
-                ok = back != invalid and abs(d - back) <= limit
-            valid[y, x] = ok
+            back = right_disp[y, x - d] if d != invalid else invalid
+            valid[y, x] = lr_agrees(d, back, limit, invalid)
     return 0
 
 
