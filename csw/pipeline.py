@@ -4,8 +4,9 @@ their defaults and allowed values) and off in the paper's contract:
   prefilter          "none", or "xsobel": StereoBM's x-Sobel response clipped to
                      +-prefilter_cap (offset by the cap into 0..2*cap), which absorbs
                      brightness differences between the views
-  cost               sad, ssd, shd, or census (census_window x census_window codes,
-                     Hamming distance summed over the matching window)
+  cost               sad, ssd, shd, or census (codes of a census_window square,
+                     census_pattern dense or sparse, Hamming distance summed over the
+                     matching window)
   CSW                the B-map skip and its rules, as in the contract
   lr_check N         invalid where |d - d_right(x - d)| > N; the right image's map comes
                      from the same costs in the same pass (no second match)
@@ -58,7 +59,8 @@ def entries(args, stages, dtype, confidence=False):
     return kernels.entries(args["engine"], args["cost"], dtype, args["window"],
                            stages["census_window"], args.get("csw", False), False,
                            confidence or needs_extras(stages), args.get("dmin", 0),
-                           lr_check=stages["lr_check"] is not None) + filter_entries(stages)
+                           lr_check=stages["lr_check"] is not None,
+                           census_pattern=stages["census_pattern"]) + filter_entries(stages)
 
 
 def needs_extras(stages):
@@ -163,6 +165,7 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
     :func:`run`."""
     a, b = prefiltered(left, right, stages)
     raw = kernels.match(a, b, census_window=stages["census_window"],
+                        census_pattern=stages["census_pattern"],
                         extras=confidence or needs_extras(stages),
                         lr_check=stages["lr_check"], workspace=workspace, **kernel_args)
     invalid = kernels.invalid(kernel_args["dmin"])

@@ -69,7 +69,8 @@ def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None
     kernels.contract.validate(
         stand_in, stand_in, window=opts["window"], dmin=opts["dmin"], dmax=opts["dmax"],
         cost=opts["cost"], csw=False, tau=-1, rule=opts["csw_rule"],
-        uniqueness=opts["uniqueness"], census_window=opts["census_window"])
+        uniqueness=opts["uniqueness"], census_window=opts["census_window"],
+        census_pattern=opts["census_pattern"])
     stages = params.stages(opts)
     layout = make_plan(opts) if make_plan is not None else None
     compile_s = load_kernels(opts, stages, dtype, confidence)

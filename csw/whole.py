@@ -91,7 +91,8 @@ def match(left, right, want_confidence=False, **options):
         Running sums, or a full window sum per candidate (the paper's method).  Both give
         identical results.
     cost : {"sad", "ssd", "shd", "census"}
-        Census compares census codes (``census_window`` square) by Hamming distance.
+        Census compares census codes (of a ``census_window`` square, ``census_pattern``
+        dense or sparse) by Hamming distance.
     window : int
         Odd window side.
     dmin, dmax : int
@@ -105,7 +106,7 @@ def match(left, right, want_confidence=False, **options):
         The unique rule's margin in percent (default 12; 25 for SSD).
     threads : int, optional
         Threads (default: all cores).
-    prefilter, prefilter_cap, census_window, lr_check, uniqueness_ratio,
+    prefilter, prefilter_cap, census_window, census_pattern, lr_check, uniqueness_ratio,
     texture_threshold, subpixel, speckle_size, speckle_range, median, fill
         The pipeline's stages (see :mod:`csw.pipeline`); ``lr_check``,
         ``uniqueness_ratio`` and ``texture_threshold`` take a number or "off" (None).

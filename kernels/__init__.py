@@ -39,7 +39,7 @@ def match(left, right, *, engine, **options):
 
 
 def entries(engine, cost, pixels, window, census_window, csw, right_map, extras, dmin=0,
-            lr_check=False):
+            lr_check=False, census_pattern=contract.DEFAULT_CENSUS_PATTERN):
     """The compiled entries (kernels/native.py) a match with these settings loads: its
     census transform, if any, its engine's variant, and the window engine's left-right
     check (the fast engine makes it in its rows).  lr_check: whether there is one."""
@@ -50,10 +50,10 @@ def entries(engine, cost, pixels, window, census_window, csw, right_map, extras,
     code = COSTS[cost]
     compared = pixels
     if cost == "census":
-        compared, code = contract.census_dtype(census_window), SHD
+        compared, code = contract.census_dtype(census_window, census_pattern), SHD
     module = fast if engine == "fast" else window_engine
     check = [("filters", ("lr",))] if lr_check and engine != "fast" else []
-    return census.entries(pixels, cost, census_window) + check + \
+    return census.entries(pixels, cost, census_window, census_pattern) + check + \
         module.entries(code, compared, window, csw, right_map or lr_check, extras, dmin)
 
 

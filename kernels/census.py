@@ -1,8 +1,10 @@
-"""The census transform: each pixel becomes a code with one bit per neighbour in its
-census window, set where the neighbour is darker than the centre.
+"""The census transform: each pixel becomes a code with one bit per neighbour of its
+census pattern in its census window, set where the neighbour is darker than the centre.
 
-Bits run over the window row by row, left to right, the centre skipped, the first
-neighbour in the most significant bit.  Pixels outside the image take the nearest edge
+The dense pattern takes every neighbour, the sparse one every second pixel of every
+second row and the centre's 8 neighbours (contract.census_places).  Bits run over the
+window row by row, left to right, the centre skipped, the first neighbour in the most
+significant bit.  Pixels outside the image take the nearest edge
 pixel's value, as in the matching contract.  Matching census codes with SHD (Hamming
 distance summed over the matching window) is the census cost.
 
@@ -11,20 +13,32 @@ Layers:
   jit/census.py      the worker over a stripe of rows
 """
 
+import functools
+
 import numpy as np
 
 from . import native, runtime
-from .contract import CENSUS, SHD, census_dtype, dtype_name, pad_edge
+from .contract import (
+    CENSUS,
+    DEFAULT_CENSUS_PATTERN,
+    SHD,
+    census_dtype,
+    census_places,
+    dtype_name,
+    pad_edge,
+)
 
 
-def variant(pixels, size):
+def variant(pixels, size, pattern=DEFAULT_CENSUS_PATTERN):
     """The compiled variant (kernels/native.py) for images of type ``pixels``."""
-    return (dtype_name(pixels), dtype_name(census_dtype(size)))
+    return (dtype_name(pixels), dtype_name(census_dtype(size, pattern)))
 
 
-def census_transform(image, size, threads=None, pad=0, reverse=False, out=None):
-    """Census codes of a uint8/uint16 (H, W) image with a size x size window (odd, 3..7):
-    an (H, W) array of the narrowest unsigned type holding size*size - 1 bits.
+def census_transform(image, size, threads=None, pad=0, reverse=False, out=None,
+                     pattern=DEFAULT_CENSUS_PATTERN):
+    """Census codes of a uint8/uint16 (H, W) image with a size x size window (odd) and a
+    pattern ("dense" or "sparse"): an (H, W) array of the narrowest unsigned type holding
+    the pattern's bits (at most 64: dense up to 7 x 7, sparse up to 15 x 15).
 
     pad, reverse: the codes edge-padded by ``pad`` on every side, (H + 2 pad, W + 2 pad),
     and with reverse, their columns reversed: the layouts the engines read, written in
@@ -34,16 +48,17 @@ def census_transform(image, size, threads=None, pad=0, reverse=False, out=None):
     padded = pad_edge(image, size // 2, image.dtype)
     height, width = image.shape
     shape = (height + 2 * pad, width + 2 * pad)
-    codes = np.empty(shape, census_dtype(size)) if out is None else out
-    run = native.entry("census", variant(image.dtype, size))
+    codes = np.empty(shape, census_dtype(size, pattern)) if out is None else out
+    run = native.entry("census", variant(image.dtype, size, pattern))
+    places = _places_array(size, pattern)
     n_threads = runtime.thread_count(threads)
-    work = height * width * size * size
+    work = height * width * len(places)
     count = 1 if work < runtime.DIRECT_WORK else min(n_threads, height)
     edges = runtime.even_split(height, count)
 
     def stripe(i, stop):
-        planes = np.empty(((size * size - 1) // 8, width), np.uint8)
-        return run([padded, codes, planes],
+        planes = np.empty((len(places) // 8, width), np.uint8)
+        return run([padded, codes, planes, places],
                    [size, edges[i], edges[i + 1], pad, int(reverse)])
 
     runtime.run_stripes(stripe, count, count, work)
@@ -53,16 +68,24 @@ def census_transform(image, size, threads=None, pad=0, reverse=False, out=None):
     return codes
 
 
-def prepare(left, right, setup, census_window, threads=None):
+@functools.cache
+def _places_array(size, pattern):
+    """census_places as the worker reads them: int64 (n,), shared by every call (not
+    read-only, since the entries take writable buffers' addresses)."""
+    return np.array(census_places(size, pattern), np.int64)
+
+
+def prepare(left, right, setup, census_window, threads=None,
+            pattern=DEFAULT_CENSUS_PATTERN):
     """The arrays the engines compare, and the Setup they run with: the images, or for
     the census cost their census codes compared with SHD."""
     if setup.cost == CENSUS:
-        left = census_transform(left, census_window, threads)
-        right = census_transform(right, census_window, threads)
+        left = census_transform(left, census_window, threads, pattern=pattern)
+        right = census_transform(right, census_window, threads, pattern=pattern)
         setup = setup._replace(cost=SHD)
     return left, right, setup
 
 
-def entries(pixels, cost, census_window):
+def entries(pixels, cost, census_window, pattern=DEFAULT_CENSUS_PATTERN):
     """The (kernel, variant) entries a match with this cost loads for its codes."""
-    return [("census", variant(pixels, census_window))] if cost == "census" else []
+    return [("census", variant(pixels, census_window, pattern))] if cost == "census" else []

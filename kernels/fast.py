@@ -29,6 +29,7 @@ from . import native, runtime
 from .census import census_transform
 from .contract import (
     CENSUS,
+    DEFAULT_CENSUS_PATTERN,
     DEFAULT_CENSUS_WINDOW,
     SAD,
     SHD,
@@ -95,8 +96,8 @@ def stripe_bounds(height, window, threads, rows):
 
 def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                rule="literal", uniqueness=None, slack=None, rows=None, threads=None,
-               census_window=DEFAULT_CENSUS_WINDOW, extras=False, right_map=False,
-               lr_check=None, workspace=None):
+               census_window=DEFAULT_CENSUS_WINDOW, census_pattern=DEFAULT_CENSUS_PATTERN,
+               extras=False, right_map=False, lr_check=None, workspace=None):
     """Match a rectified pair with running sums (same contract as match_window).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
@@ -114,7 +115,8 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     left, right, s, rows = validate(left, right, window=window, dmin=dmin, dmax=dmax,
                                     cost=cost, csw=csw, tau=tau, rule=rule,
                                     uniqueness=uniqueness, slack=slack, rows=rows,
-                                    census_window=census_window, extras=extras,
+                                    census_window=census_window,
+                                    census_pattern=census_pattern, extras=extras,
                                     right_map=right_map, lr_check=lr_check)
     height, width = left.shape
     ndisp = s.dmax - s.dmin + 1
@@ -125,11 +127,14 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     h = s.window // 2
     shift = max(0, -s.dmin)  # a negative range reaches right pixels beyond the image
     if s.cost == CENSUS:  # the codes, written padded (and reversed) by the transform
-        shape, codes = (height + 2 * h, width + 2 * h), census_dtype(census_window)
+        shape = (height + 2 * h, width + 2 * h)
+        codes = census_dtype(census_window, census_pattern)
         left_p = census_transform(left, census_window, threads, pad=h,
-                                  out=empty(workspace, "padded-left", shape, codes))
+                                  out=empty(workspace, "padded-left", shape, codes),
+                                  pattern=census_pattern)
         right_rev = census_transform(right, census_window, threads, pad=h, reverse=True,
-                                     out=empty(workspace, "padded-right", shape, codes))
+                                     out=empty(workspace, "padded-right", shape, codes),
+                                     pattern=census_pattern)
         s = s._replace(cost=SHD)
     else:  # padding the reversed image is reversing the padded one
         shape = (height + 2 * h, width + 2 * h)

@@ -15,6 +15,7 @@ import numpy as np
 from . import native, runtime
 from .census import prepare
 from .contract import (
+    DEFAULT_CENSUS_PATTERN,
     DEFAULT_CENSUS_WINDOW,
     SAD,
     SSD,
@@ -71,13 +72,15 @@ def entries(cost, pixels, window, csw, right_map, extras, dmin=0):
 
 def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                  rule="literal", uniqueness=None, slack=None, rows=None, threads=None,
-                 census_window=DEFAULT_CENSUS_WINDOW, extras=False, right_map=False,
+                 census_window=DEFAULT_CENSUS_WINDOW,
+                 census_pattern=DEFAULT_CENSUS_PATTERN, extras=False, right_map=False,
                  lr_check=None, workspace=None):
     """Match a rectified pair with full window sums (the contract: docs/engines.md).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
-    cost: "sad", "ssd", "shd" or "census" (census_window x census_window census codes,
-        compared with SHD).
+    cost: "sad", "ssd", "shd" or "census" (census codes of a census_window x
+        census_window window and a census_pattern, "dense" or "sparse", compared with
+        SHD; see kernels/census.py).
     rule, uniqueness: the CSW rule ("literal" or "unique") and the unique rule's margin
         in percent (see docs/engines.md, "CSW rules").  slack: override the rule's binding
         (a claim by x' blocks x only when x - x' > slack); for studies of the rule.
@@ -94,10 +97,11 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     left, right, s, rows = validate(left, right, window=window, dmin=dmin, dmax=dmax,
                                     cost=cost, csw=csw, tau=tau, rule=rule,
                                     uniqueness=uniqueness, slack=slack, rows=rows,
-                                    census_window=census_window, extras=extras,
+                                    census_window=census_window,
+                                    census_pattern=census_pattern, extras=extras,
                                     right_map=right_map, lr_check=lr_check)
     n_threads = runtime.thread_count(threads)
-    left, right, s = prepare(left, right, s, census_window, threads)
+    left, right, s = prepare(left, right, s, census_window, threads, census_pattern)
     h = s.window // 2
     dtype = padded_type(left.dtype)
     left_p, right_p = pad_edge(left, h, dtype), pad_edge(right, h, dtype)

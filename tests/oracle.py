@@ -8,10 +8,12 @@ helper can't hide here.
 import numpy as np
 
 
-def census(image, size):
+def census(image, size, pattern="dense"):
     """Census codes as Python ints in an object array: one bit per neighbour of the
     size x size window (edge-replicated), row by row, the centre skipped, the first
-    neighbour most significant; a bit is set where the neighbour is darker."""
+    neighbour most significant; a bit is set where the neighbour is darker.  The dense
+    pattern takes every neighbour; the sparse one those at an even row and column offset
+    from the centre, and the 3 x 3 around it."""
     height, width = image.shape
     h = size // 2
     codes = np.zeros((height, width), object)
@@ -21,6 +23,9 @@ def census(image, size):
             for a in range(-h, h + 1):
                 for b in range(-h, h + 1):
                     if a == 0 and b == 0:
+                        continue
+                    if pattern == "sparse" and not (a % 2 == 0 and b % 2 == 0) and \
+                            not (abs(a) <= 1 and abs(b) <= 1):
                         continue
                     yy = min(max(y + a, 0), height - 1)
                     xx = min(max(x + b, 0), width - 1)
@@ -55,7 +60,8 @@ def window_costs(left, right, y, x, ds, window, cost):
 
 
 def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=None,
-                 rule="literal", uniqueness=None, slack=None, census_window=5, extras=False):
+                 rule="literal", uniqueness=None, slack=None, census_window=5, extras=False,
+                 census_pattern="dense"):
     """Reference (disparity int32 (n, W), min_cost int64 (n, W), evaluated int), and with
     ``extras`` a fourth item: a dict of second_cost, prev_cost, next_cost (int64, the
     least evaluated cost 2 or more from d, the costs at d -/+ 1; -1 where none) and
@@ -75,7 +81,8 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
     if uniqueness is None:
         uniqueness = 25 if cost == "ssd" else 12
     if cost == "census":
-        left, right = census(left, census_window), census(right, census_window)
+        left = census(left, census_window, census_pattern)
+        right = census(right, census_window, census_pattern)
     height, width = left.shape
     rows = range(height) if rows is None else rows
     if slack is None:

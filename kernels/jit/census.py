@@ -1,7 +1,6 @@
 """The census transform's worker (see kernels/census.py): each pixel becomes a code with
-one bit per neighbour of its census window, set where the neighbour is darker than the
-centre; bits run over the window row by row, the centre skipped, the first neighbour in
-the most significant bit."""
+one bit per neighbour of its census pattern (see contract.census_places), set where the
+neighbour is darker than the centre; the first neighbour in the most significant bit."""
 
 import numpy as np
 from numba import njit
@@ -14,15 +13,15 @@ def spec(pixels, codes):
     """The worker for images of type ``pixels`` and codes of type ``codes``."""
     from ..native import Spec
 
-    arrays = ((dtype_of(pixels), 2), (dtype_of(codes), 2), (np.dtype(np.uint8), 2))
+    arrays = ((dtype_of(pixels), 2), (dtype_of(codes), 2), (np.dtype(np.uint8), 2),
+              (np.dtype(np.int64), 1))
     return Spec(_make(dtype_of(codes).type), arrays, 5)
 
 
 @njit(**SERIAL)
-def _neighbour(image_p, y, i, size, width):
-    """The row of neighbour i (window order, the centre skipped) of image row y's census
-    windows: (width,) from image_p, edge-padded by size // 2."""
-    place = i + (i >= size * size // 2)
+def _neighbour(image_p, y, place, size, width):
+    """The row of the neighbour at ``place`` (row-major in the window) of image row y's
+    census windows: (width,) from image_p, edge-padded by size // 2."""
     return image_p[y + place // size, place % size:place % size + width]
 
 
@@ -30,34 +29,35 @@ def _make(code):
     """The worker for codes of numpy type ``code`` (a compile-time constant)."""
 
     @njit(**SERIAL)
-    def rows(image_p, codes, planes, sc):
+    def rows(image_p, codes, planes, places, sc):
         """Codes of rows sc[1] <= y < sc[2] for a census window of side sc[0], written
         into codes edge-padded by sc[3] columns each side (and rows, which the caller
         fills) and, with sc[4], with the columns reversed: the layouts the engines read.
 
         image_p: (H + size - 1, W + size - 1), edge-padded by size // 2.  codes: (H + 2p,
-        W + 2p) out, p = sc[3].  planes: uint8 ((size * size - 1) // 8, W) scratch.  Each
-        byte plane takes eight neighbours in one pass over the row (8-bit SIMD lanes; a
-        pass per neighbour cost twice as long, in loop set-up); one pass then joins the
-        planes into codes, the first plane most significant.
+        W + 2p) out, p = sc[3].  places: int64 (n,) the neighbours' places in the window,
+        in bit order, n a multiple of 8.  planes: uint8 (n // 8, W) scratch.  Each byte
+        plane takes eight neighbours in one pass over the row (8-bit SIMD lanes; a pass
+        per neighbour cost twice as long, in loop set-up); one pass then joins the planes
+        into codes, the first plane most significant.
         """
         size, y0, y1, pad, reverse = sc[0], sc[1], sc[2], sc[3], sc[4]
         h = size // 2
         width = codes.shape[1] - 2 * pad
-        groups = planes.shape[0]  # size * size - 1 is a multiple of 8 for odd sizes
+        groups = planes.shape[0]
         for y in range(y0, y1):
             padded = codes[y + pad]
             centre = image_p[y + h, h:h + width]
             for g in range(groups):
-                i = 8 * g  # the group's first neighbour
-                n0, n1 = _neighbour(image_p, y, i, size, width), \
-                    _neighbour(image_p, y, i + 1, size, width)
-                n2, n3 = _neighbour(image_p, y, i + 2, size, width), \
-                    _neighbour(image_p, y, i + 3, size, width)
-                n4, n5 = _neighbour(image_p, y, i + 4, size, width), \
-                    _neighbour(image_p, y, i + 5, size, width)
-                n6, n7 = _neighbour(image_p, y, i + 6, size, width), \
-                    _neighbour(image_p, y, i + 7, size, width)
+                at = places[8 * g:8 * g + 8]  # the group's neighbours
+                n0, n1 = _neighbour(image_p, y, at[0], size, width), \
+                    _neighbour(image_p, y, at[1], size, width)
+                n2, n3 = _neighbour(image_p, y, at[2], size, width), \
+                    _neighbour(image_p, y, at[3], size, width)
+                n4, n5 = _neighbour(image_p, y, at[4], size, width), \
+                    _neighbour(image_p, y, at[5], size, width)
+                n6, n7 = _neighbour(image_p, y, at[6], size, width), \
+                    _neighbour(image_p, y, at[7], size, width)
                 byte = planes[g]
                 for x in range(width):
                     c = centre[x]
@@ -65,7 +65,13 @@ def _make(code):
                                ((n3[x] < c) << 4) | ((n4[x] < c) << 3) | ((n5[x] < c) << 2) |
                                ((n6[x] < c) << 1) | (n7[x] < c))
             out = padded[pad:pad + width]
-            if groups == 6:  # 7 x 7, the default: the join written out vectorises
+            # The joins of the usual codes written out, which vectorises.
+            if groups == 4:  # 32 bits: the sparse 9 x 9 of the default pipeline
+                p0, p1, p2, p3 = planes[0], planes[1], planes[2], planes[3]
+                for x in range(width):
+                    out[x] = code((code(p0[x]) << code(24)) | (code(p1[x]) << code(16)) |
+                                  (code(p2[x]) << code(8)) | code(p3[x]))
+            elif groups == 6:  # dense 7 x 7
                 p0, p1, p2, p3, p4, p5 = planes[0], planes[1], planes[2], planes[3], \
                     planes[4], planes[5]
                 for x in range(width):

@@ -13,20 +13,27 @@ from oracle import census, oracle_match
 ENGINES = sorted(kernels.ENGINES)
 
 
-@pytest.mark.parametrize("size", [3, 5, 7])
-def test_census_transform_equals_the_oracle(size):
+@pytest.mark.parametrize("size, pattern, bits",
+                         [(3, "dense", 8), (5, "dense", 24), (7, "dense", 48),
+                          (3, "sparse", 8), (5, "sparse", 16), (7, "sparse", 16),
+                          (9, "sparse", 32), (11, "sparse", 32), (15, "sparse", 56)])
+def test_census_transform_equals_the_oracle(size, pattern, bits):
     rng = np.random.default_rng(size)
-    image = rng.integers(0, 6, (9, 13)).astype(np.uint8)  # few levels: many ties
-    codes = census_transform(image, size)
-    assert codes.dtype.itemsize * 8 >= size * size - 1
-    assert [[int(v) for v in row] for row in codes] == census(image, size).tolist()
+    image = rng.integers(0, 6, (17, 19)).astype(np.uint8)  # few levels: many ties
+    codes = census_transform(image, size, pattern=pattern)
+    want = census(image, size, pattern)
+    assert [[int(v) for v in row] for row in codes] == want.tolist()
+    # The first neighbour's bit is the code's top one, in the narrowest type holding it.
+    assert max(int(v) for v in want.ravel()).bit_length() == bits
+    assert codes.dtype.itemsize * 8 == max(8, 1 << (bits - 1).bit_length())
 
 
-def test_census_window_over_64_bits_is_refused():
-    img = np.zeros((12, 12), np.uint8)
+@pytest.mark.parametrize("size, pattern", [(9, "dense"), (17, "sparse")])
+def test_census_window_over_64_bits_is_refused(size, pattern):
+    img = np.zeros((20, 20), np.uint8)
     with pytest.raises(ValueError, match="more than 64"):
         kernels.match(img, img, engine="fast", window=3, dmin=0, dmax=2, cost="census",
-                      census_window=9)
+                      census_window=size, census_pattern=pattern)
 
 
 def assert_same(got, want):
@@ -40,10 +47,12 @@ def assert_same(got, want):
 
 @settings(deadline=None)
 @given(seed=st.integers(0, 2**31), cost=st.sampled_from(["sad", "census", "shd", "ssd"]),
-       census_window=st.sampled_from([3, 5, 7]), window=st.sampled_from([1, 3, 5]),
+       census_kind=st.sampled_from([(3, "dense"), (5, "dense"), (7, "dense"), (5, "sparse"),
+                                    (9, "sparse")]),
+       window=st.sampled_from([1, 3, 5]),
        dmin=st.integers(0, 2), span=st.integers(0, 6),
        mode=st.sampled_from(["plain", "literal", "unique"]), levels=st.sampled_from([3, 256]))
-def test_extras_and_census_equal_the_oracle(seed, cost, census_window, window, dmin, span,
+def test_extras_and_census_equal_the_oracle(seed, cost, census_kind, window, dmin, span,
                                             mode, levels):
     rng = np.random.default_rng(seed)
     left = rng.integers(0, levels, (7, 14)).astype(np.uint8)
@@ -52,12 +61,15 @@ def test_extras_and_census_equal_the_oracle(seed, cost, census_window, window, d
     csw = mode != "plain"
     rule = "literal" if mode == "plain" else mode
     tau = {"plain": -1, "literal": 40, "unique": 10**9}[mode]
+    census_window, census_pattern = census_kind
     want = oracle_match(left, right, window, dmin, dmax, cost, csw, tau, rule=rule,
-                        census_window=census_window, extras=True)
+                        census_window=census_window, census_pattern=census_pattern,
+                        extras=True)
     for engine in ENGINES:
         got = kernels.match(left, right, engine=engine, window=window, dmin=dmin, dmax=dmax,
                             cost=cost, csw=csw, tau=tau, rule=rule,
-                            census_window=census_window, extras=True, right_map=True)
+                            census_window=census_window, census_pattern=census_pattern,
+                            extras=True, right_map=True)
         assert_same(got, want)
 
 

@@ -110,7 +110,9 @@ def test_fill_leaves_nothing_invalid_and_presets(small_scene):
     (dict(preset="nice"), "preset must be one of"),
     (dict(subpixel="cubic"), "subpixel must be one of"),
     (dict(median=4), "median must be"),
-    (dict(cost="census", census_window=9), "more than 64"),
+    (dict(cost="census", census_window=9, census_pattern="dense"), "more than 64"),
+    (dict(census_window=17), "more than 64"),  # the accurate preset's sparse census
+    (dict(census_pattern="checker"), "census_pattern must be one of"),
     (dict(prefilter_cap=0, prefilter="xsobel"), "prefilter_cap"),
 ])
 def test_bad_stage_options(small_scene, kwargs, message):
