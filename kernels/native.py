@@ -213,7 +213,10 @@ def _compile_in_processes(folder, missing, shares, progress=None):
 
     start = time.perf_counter()
     code = _WORKER.format(package=__package__)
-    procs = [subprocess.Popen([sys.executable, "-c", code, str(folder),
+    # -P: no current folder on the workers' path, where a folder named like the package
+    # (a source checkout) could hand them other kernel sources than this process's,
+    # compiled into this process's cache under its fingerprint.
+    procs = [subprocess.Popen([sys.executable, "-P", "-c", code, str(folder),
                                json.dumps([(k, list(v)) for k, v in share]),
                                str(os.getpid())],
                               stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,

@@ -7,6 +7,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 PROBE = """
 import json, sys, numpy as np
 from csw import kernels
@@ -71,3 +73,23 @@ def test_missing_entries_compile_in_worker_processes_or_here_if_they_fail(tmp_pa
     for cache in ("workers", "broken"):
         assert [p.name for p in (tmp_path / cache).rglob("*.tmp")] == []
         assert len(list((tmp_path / cache).rglob("*.json"))) == 3
+
+
+def test_compile_workers_ignore_a_package_of_the_same_name_in_the_current_folder(tmp_path):
+    """A source checkout's csw/ in the current folder must not reach the compile workers:
+    they would compile its kernels into this process's cache."""
+    from csw.kernels.runtime import cores
+
+    if cores() < 2:
+        pytest.skip("entries compile in worker processes only with two cores or more")
+    decoy = tmp_path / "checkout" / "csw"
+    decoy.mkdir(parents=True)
+    marker = tmp_path / "decoy-imported"
+    (decoy / "__init__.py").write_text(f"open({str(marker)!r}, 'w').close()\n")
+    env = dict(os.environ, CSW_KERNEL_CACHE=str(tmp_path / "cache"))
+    out = subprocess.run([sys.executable, "-P", "-c", TWO_ENTRIES, "workers"],
+                         capture_output=True, text=True, timeout=600, check=True, env=env,
+                         cwd=decoy.parent)
+    stats = json.loads(out.stdout.strip().splitlines()[-1])
+    assert stats["compiled"] == 3 and not stats["numba"]  # the workers compiled them all
+    assert not marker.exists()
