@@ -178,9 +178,12 @@ def census_dtype(census_window, pattern=DEFAULT_CENSUS_PATTERN):
     for dtype in (np.uint8, np.uint16, np.uint32, np.uint64):
         if bits <= np.iinfo(dtype).bits:
             return dtype
+    largest = max(c for c in range(3, census_window, 2)
+                  if len(census_places(c, pattern)) <= MAX_CENSUS_BITS)
+    fix = f"use a census window of {largest} or less" + (
+        " or the sparse pattern" if pattern == "dense" else "")
     raise ValueError(f"a {pattern} {census_window}x{census_window} census has {bits} bits, "
-                     f"more than {MAX_CENSUS_BITS}; use a smaller census window or the "
-                     f"sparse pattern")
+                     f"more than {MAX_CENSUS_BITS}; {fix}")
 
 
 def _as_image(name, image):

@@ -28,10 +28,12 @@ def test_census_transform_equals_the_oracle(size, pattern, bits):
     assert codes.dtype.itemsize * 8 == max(8, 1 << (bits - 1).bit_length())
 
 
-@pytest.mark.parametrize("size, pattern", [(9, "dense"), (17, "sparse")])
-def test_census_window_over_64_bits_is_refused(size, pattern):
+@pytest.mark.parametrize("size, pattern, fix", [
+    (9, "dense", "census window of 7 or less or the sparse pattern$"),
+    (17, "sparse", "census window of 15 or less$")])
+def test_census_window_over_64_bits_is_refused(size, pattern, fix):
     img = np.zeros((20, 20), np.uint8)
-    with pytest.raises(ValueError, match="more than 64"):
+    with pytest.raises(ValueError, match=f"more than 64; use a {fix}"):
         kernels.match(img, img, engine="fast", window=3, dmin=0, dmax=2, cost="census",
                       census_window=size, census_pattern=pattern)
 
