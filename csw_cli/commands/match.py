@@ -28,7 +28,10 @@ def summary_line(result):
         notes += f"; range d {s['dmin']}..{s['dmax']} from {s['range_source']}"
     if s.get("calibration"):
         notes += f"; calibration {s['calibration']}"
-    return (f"{width}x{height} d {s['dmin']}..{s['dmax']} {s['cost'].upper()} "
+    cost = s["cost"].upper()
+    if s["cost"] == "census":  # which codes: the census window is not the matching one
+        cost += f" ({s['census_pattern']} {s['census_window']}x{s['census_window']} codes)"
+    return (f"{width}x{height} d {s['dmin']}..{s['dmax']} {cost} "
             f"{s['window']}x{s['window']} {mode}, preset {s['preset']} "
             f"({s['engine']} engine{stripes}): "
             f"{result.seconds:.3f} s (compile {result.compile_seconds:.2f} s), evaluated "

@@ -35,6 +35,19 @@ def test_match_writes_pfm_equal_to_kernel(pair_files, tmp_path, small_scene):
     assert result.stdout == ""
 
 
+@pytest.mark.parametrize("options, described", [
+    ((), "CENSUS (sparse 9x9 codes) 9x9 plain, preset accurate"),
+    (("--census-window", 5, "--census-pattern", "dense", "--window", 7),
+     "CENSUS (dense 5x5 codes) 7x7 plain, preset accurate"),
+    (("--preset", "raw"), "SAD 9x9 plain, preset raw")])
+def test_the_summary_names_the_census_codes_apart_from_the_window(pair_files, tmp_path,
+                                                                   options, described):
+    left, right = pair_files
+    result = run("match", left, right, "-o", tmp_path / "d.pfm", "--dmax", 16, *options)
+    assert result.exit_code == 0, result.output
+    assert described in result.stderr
+
+
 def test_pfm_is_bottom_to_top_little_endian(tmp_path):
     from csw.io import write_disparity
 
