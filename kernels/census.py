@@ -4,9 +4,9 @@ census pattern in its census window, set where the neighbour is darker than the 
 The dense pattern takes every neighbour, the sparse one every second pixel of every
 second row and the centre's 8 neighbours (contract.census_places).  Bits run over the
 window row by row, left to right, the centre skipped, the first neighbour in the most
-significant bit.  Pixels outside the image take the nearest edge
-pixel's value, as in the matching contract.  Matching census codes with SHD (Hamming
-distance summed over the matching window) is the census cost.
+significant bit.  Pixels outside the image take the nearest edge pixel's value, as in
+the matching contract.  Matching census codes with SHD (Hamming distance summed over
+the matching window) is the census cost.
 
 Layers:
   census_transform   public: pad, allocate, run the stripes of rows in parallel

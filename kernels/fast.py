@@ -126,8 +126,8 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     n_threads = runtime.thread_count(threads)
     h = s.window // 2
     shift = max(0, -s.dmin)  # a negative range reaches right pixels beyond the image
+    shape = (height + 2 * h, width + 2 * h)
     if s.cost == CENSUS:  # the codes, written padded (and reversed) by the transform
-        shape = (height + 2 * h, width + 2 * h)
         codes = census_dtype(census_window, census_pattern)
         left_p = census_transform(left, census_window, threads, pad=h,
                                   out=empty(workspace, "padded-left", shape, codes),
@@ -137,7 +137,6 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                                      pattern=census_pattern)
         s = s._replace(cost=SHD)
     else:  # padding the reversed image is reversing the padded one
-        shape = (height + 2 * h, width + 2 * h)
         left_p = pad_edge(left, h, left.dtype,
                           out=empty(workspace, "padded-left", shape, left.dtype))
         right_rev = pad_edge(right[:, ::-1], h, right.dtype,
