@@ -133,31 +133,27 @@ def ensure(wanted, progress=None, notice=True):
                                                         _spec(kernel, variant), None)
         return time.perf_counter() - start
     folder = cache_dir()
-    missing = [(k, v) for k, v in todo if not _stored(folder, entry_key(k, v))]
+    found = {}  # key -> its verified description
+    missing = [(k, v) for k, v in todo if not _verified(folder, entry_key(k, v), found)]
     if missing:
         with _lock(folder):  # another process may be compiling them: wait, then look again
-            missing = [(k, v) for k, v in missing if not _stored(folder, entry_key(k, v))]
+            missing = [(k, v) for k, v in missing
+                       if not _verified(folder, entry_key(k, v), found, discard=True)]
             if missing:
                 _compile(folder, missing, progress, notice)
+            for kernel, variant in missing:
+                if not _verified(folder, entry_key(kernel, variant), found):
+                    raise RuntimeError(f"csw could not store the kernel "
+                                       f"{entry_key(kernel, variant)} in {folder}")
     loading = time.perf_counter()
     for kernel, variant in todo:
         key = entry_key(kernel, variant)
-        _LOADED[key] = Entry(key, _spec_shape(kernel, variant), _load(folder, key))
+        _LOADED[key] = Entry(key, _spec_shape(found[key]), _load(folder, key, found[key]))
         STATS["loaded"] += 1
         if progress is not None and (kernel, variant) not in missing:
             progress(key, False)
     STATS["load_seconds"] += time.perf_counter() - loading
     return time.perf_counter() - start
-
-
-def missing_seconds(wanted):
-    """The estimated seconds to compile what of ``wanted`` is not in the cache yet."""
-    if JIT_DISABLED:
-        return 0.0
-    folder = cache_dir()
-    return sum(COMPILE_SECONDS.get(k, 1.0) for k, v in wanted
-               if entry_key(k, tuple(v)) not in _LOADED and
-               not _stored(folder, entry_key(k, tuple(v))))
 
 
 def _compile(folder, missing, progress=None, notice=True):
@@ -274,10 +270,9 @@ def _spec(kernel, variant):
     return module.spec(*variant)
 
 
-def _spec_shape(kernel, variant):
-    """The Spec's array and scalar layout without importing Numba: stored beside the
-    entry's code when it was compiled."""
-    meta = json.loads((cache_dir() / f"{entry_key(kernel, variant)}.json").read_text())
+def _spec_shape(meta):
+    """The Spec's array and scalar layout without importing Numba, from the description
+    stored beside the entry's code when it was compiled."""
     arrays = tuple((np.dtype(d), n) for d, n in meta["arrays"])
     return Spec(None, arrays, meta["scalars"])
 
@@ -289,7 +284,7 @@ def cache_dir():
     """The kernel cache of this CPU and kernel source: CSW_KERNEL_CACHE, else
     NUMBA_CACHE_DIR/csw (the folder CI setups already keep between runs), else the user's
     cache folder; in a subfolder named by everything the machine code depends on."""
-    root = os.environ.get("CSW_KERNEL_CACHE")
+    root = os.environ.get("CSW_KERNEL_CACHE") or None  # set but empty: not set
     if root is None and os.environ.get("NUMBA_CACHE_DIR"):
         root = Path(os.environ["NUMBA_CACHE_DIR"]) / "csw"
     if root is None:
@@ -321,19 +316,83 @@ def _fingerprint():
     return _FINGERPRINT["value"]
 
 
+# Modes of the cache's folders and files, whatever the umask: machine code that other
+# users could replace would run in every csw process that loads it.
+FOLDER_MODE, FILE_MODE = 0o755, 0o644
+
+
 def _stored(folder, key):
     return (folder / f"{key}.json").is_file() and (folder / f"{key}.o").is_file()
 
 
+def _safe_mode(path):
+    """Whether ``path`` is not writable by the group or others."""
+    return not os.stat(path).st_mode & 0o022
+
+
+def _verified(folder, key, found, discard=False):
+    """Whether the entry ``key`` is complete and intact: its description reads, names its
+    symbol and layout, its object file has the size and sha256 the description gives,
+    and neither is writable by others.  The description goes into ``found``.  With
+    ``discard`` (the caller holds the lock) a damaged entry is removed, to be compiled
+    again."""
+    if key in found:
+        return True
+    meta_path, code_path = folder / f"{key}.json", folder / f"{key}.o"
+    try:
+        meta = json.loads(meta_path.read_text())
+        code = code_path.read_bytes()
+        intact = (isinstance(meta, dict) and isinstance(meta.get("symbol"), str)
+                  and isinstance(meta.get("arrays"), list)
+                  and isinstance(meta.get("scalars"), int)
+                  and isinstance(meta.get("imports"), list)
+                  and meta.get("size") == len(code)
+                  and meta.get("sha256") == hashlib.sha256(code).hexdigest()
+                  and _safe_mode(folder) and _safe_mode(meta_path) and _safe_mode(code_path))
+    except (OSError, ValueError, TypeError):
+        intact = False
+    if intact:
+        found[key] = meta
+    elif discard:
+        for path in (meta_path, code_path):
+            path.unlink(missing_ok=True)
+    return intact
+
+
+def make_folder(folder):
+    """``folder`` and its missing parents, each FOLDER_MODE whatever the umask."""
+    folder = Path(folder)
+    missing = []
+    while not folder.is_dir():
+        missing.append(folder)
+        folder = folder.parent
+    for path in reversed(missing):
+        try:
+            path.mkdir()
+        except FileExistsError:
+            continue
+        os.chmod(path, FOLDER_MODE)
+
+
 def _store(folder, key, symbol, code):
-    """Write the object file, then its description: an entry is complete once its .json
-    exists, and both are renamed into place, so a killed compile leaves no entry."""
+    """Write the object file, then its description with the code's size and sha256: an
+    entry is complete once its .json exists and matches, and both are renamed into
+    place, so a killed compile leaves no entry and a damaged one is found."""
     meta, obj = code
-    folder.mkdir(parents=True, exist_ok=True)
-    for suffix, payload in ((".o", obj), (".json", json.dumps(dict(meta, symbol=symbol))
-                                          .encode())):
+    make_folder(folder)
+    description = dict(meta, symbol=symbol, size=len(obj),
+                       sha256=hashlib.sha256(obj).hexdigest())
+    for suffix, payload in ((".o", obj), (".json", json.dumps(description).encode())):
         tmp = folder / f".{key}{suffix}.{os.getpid()}.tmp"
-        tmp.write_bytes(payload)
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, FILE_MODE)
+        try:
+            os.fchmod(fd, FILE_MODE)
+            with os.fdopen(fd, "wb") as handle:
+                handle.write(payload)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            raise OSError(exc.errno, f"can't store a compiled kernel ({exc.strerror})",
+                          str(folder)) from None
         os.replace(tmp, folder / f"{key}{suffix}")
 
 
@@ -345,8 +404,10 @@ class _lock:
         self.folder = folder
 
     def __enter__(self):
-        self.folder.mkdir(parents=True, exist_ok=True)
-        self.handle = open(self.folder / ".lock", "a+")
+        make_folder(self.folder)
+        if not _safe_mode(self.folder):  # made by an older csw under a loose umask
+            os.chmod(self.folder, FOLDER_MODE)
+        self.handle = open(os.open(self.folder / ".lock", os.O_RDWR | os.O_CREAT, FILE_MODE))
         try:
             import fcntl
 
@@ -364,11 +425,11 @@ class _lock:
         return False
 
 
-def _load(folder, key):
-    """The ctypes function of a stored entry, through an llvmlite execution engine."""
+def _load(folder, key, meta):
+    """The ctypes function of a stored entry (``meta``: its verified description),
+    through an llvmlite execution engine."""
     import llvmlite.binding as llvm
 
-    meta = json.loads((folder / f"{key}.json").read_text())
     if not _ENGINES:
         llvm.initialize_native_target()
         llvm.initialize_native_asmprinter()

@@ -93,3 +93,58 @@ def test_compile_workers_ignore_a_package_of_the_same_name_in_the_current_folder
     stats = json.loads(out.stdout.strip().splitlines()[-1])
     assert stats["compiled"] == 3 and not stats["numba"]  # the workers compiled them all
     assert not marker.exists()
+
+
+MAP_PROBE = PROBE.replace("print(json.dumps(dict(kernels.native.STATS,",
+                          "out = kernels.match(img + np.arange(6, dtype=np.uint8), img, "
+                          "engine='window', window=3, dmin=0, dmax=2, cost='sad')\n"
+                          "print(json.dumps(dict(kernels.native.STATS, "
+                          "map=out.disparity.tolist(),")
+
+
+def map_probe(cache, umask=None):
+    env = dict(os.environ, CSW_KERNEL_CACHE=str(cache))
+    out = subprocess.run([sys.executable, "-c", MAP_PROBE], capture_output=True, text=True,
+                         timeout=600, env=env,
+                         preexec_fn=None if umask is None else lambda: os.umask(umask))
+    assert out.returncode == 0, out.stderr  # never a segfault (-11) nor an abort
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("damage", ["truncated code", "flipped byte", "truncated json",
+                                    "foreign json"])
+def test_a_damaged_cache_entry_is_found_and_rebuilt(tmp_path, damage):
+    clean = map_probe(tmp_path)
+    assert clean["compiled"] >= 1
+    code = next(tmp_path.rglob("window-*.o"))
+    meta = code.with_suffix(".json")
+    if damage == "truncated code":
+        code.write_bytes(code.read_bytes()[:1000])
+    elif damage == "flipped byte":
+        data = bytearray(code.read_bytes())
+        data[len(data) // 2] ^= 0xFF
+        code.write_bytes(bytes(data))
+    elif damage == "truncated json":
+        meta.write_text(meta.read_text()[:11])
+    else:
+        meta.write_text(json.dumps({"symbol": "x", "arrays": [], "scalars": 0,
+                                    "imports": []}))
+    again = map_probe(tmp_path)
+    assert again["compiled"] == 1 and again["map"] == clean["map"]
+    assert map_probe(tmp_path)["compiled"] == 0  # and it stays rebuilt
+
+
+def test_cache_files_are_never_writable_by_others_whatever_the_umask(tmp_path):
+    map_probe(tmp_path / "cache", umask=0)
+    paths = [tmp_path / "cache", *(tmp_path / "cache").rglob("*")]
+    assert len(paths) > 3
+    loose = [str(p) for p in paths if p.stat().st_mode & 0o022]
+    assert loose == []
+
+
+def test_an_entry_writable_by_others_is_not_loaded(tmp_path):
+    map_probe(tmp_path)
+    code = next(tmp_path.rglob("window-*.o"))
+    os.chmod(code, 0o666)
+    assert map_probe(tmp_path)["compiled"] == 1
+    assert not next(tmp_path.rglob("window-*.o")).stat().st_mode & 0o022
