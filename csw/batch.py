@@ -12,12 +12,17 @@ from pathlib import Path
 from . import calib as calib_module
 from .executor import progress_bar, run_tasks
 from .files import COMPANIONS
+from .geometry import check_max_depth
 from .geometry import writers as three_d_writers
+from .io import safety
 from .io.atomic import atomic_write, atomic_write_all, remove_temporaries
 from .io.formats import check_range, disparity_writer, suffixes
 from .io.images import ImageError, read_colour, read_image
 from .params import OptionError, resolve
 from .whole import match
+
+# A name's outputs add a suffix (".depth.tiff") to it, and a file name holds 255 bytes.
+MAX_NAME_BYTES = 200
 
 # Each pair's 3-D outputs are NAME + this + their format: NAME.depth.pfm, NAME.ply ...
 PER_PAIR_INFIX = {"depth": ".depth", "cloud": "", "depth_preview": ".depth"}
@@ -50,6 +55,8 @@ def check_name(name, where):
         problem = "holds '..'"
     elif len(name) >= 2 and name[1] == ":" and name[0].isalpha():
         problem = "starts with a drive letter"
+    elif len(name.encode(errors="replace")) > MAX_NAME_BYTES:
+        problem = f"is longer than {MAX_NAME_BYTES} bytes"
     if problem:
         raise ValueError(f"{where}: the name {name!r} {problem}; a pair's name must be a "
                          "plain file name (letters, digits, '-', '_', '.')")
@@ -82,6 +89,10 @@ def jobs_from_manifest(path):
     left file's stem) names the outputs and must be a plain file name.  ValueError,
     naming the line, on a malformed record or a bad name."""
     path = Path(path)
+    safety.protect(path)
+    kind = safety.kind_of(path)
+    if kind not in ("file", None):  # a device (/dev/zero) or a pipe would never end
+        raise ValueError(f"{path} is a {kind}, not a manifest file")
     try:
         with open(path, newline="", encoding="utf-8-sig") as handle:
             reader = csv.reader(handle)
@@ -135,30 +146,49 @@ def _inside(path, folder):
     return os.path.dirname(real) == base
 
 
-def check_outputs(jobs, outputs, out_dir, summary):
+def check_outputs(jobs, outputs, out_dir, summary, calib=None):
     """Before any work: every output (per job, a dict of role -> path) resolves, links
-    followed, to a file directly in ``out_dir``, and neither an output nor the summary is
-    an input of the batch.  ValueError (one line) naming the first offender."""
+    followed, to a regular file (or nothing yet) directly in ``out_dir``; no two outputs,
+    of one pair or of two, are one file; and neither an output nor the summary is an
+    input of the batch (a pair's image, the calibration, a file the run has read, such
+    as the manifest).  ValueError (one line) naming the first offender."""
     inputs = {}
     for job in jobs:
         for side in (job.left, job.right):
             if side is not None:
-                inputs.setdefault(os.path.realpath(side), job)
+                inputs.setdefault(os.path.realpath(side), job.where or str(job.left))
+    if isinstance(calib, (str, Path)):
+        inputs[os.path.realpath(calib)] = "the calibration"
+    written = {}
     for job, paths in zip(jobs, outputs, strict=True):
-        for path in paths.values():
+        for role, path in paths.items():
+            where = job.where or job.left
             if not _inside(path, out_dir):
-                raise ValueError(f"{job.where or job.left}: {path} resolves to "
-                                 f"{os.path.realpath(path)}, outside the output folder "
-                                 f"{out_dir}; csw won't write there")
+                raise ValueError(f"{where}: {path} resolves to {os.path.realpath(path)}, "
+                                 f"outside the output folder {out_dir}; csw won't write "
+                                 "there")
+            real = os.path.realpath(path).casefold()  # as check_names: one on macOS
             owner = inputs.get(os.path.realpath(path))
             if owner is not None:
-                raise ValueError(f"{job.where or job.left}: the output {path} is an input "
-                                 f"of {owner.where or owner.left}; an output must not "
-                                 "overwrite an input")
-    owner = inputs.get(os.path.realpath(summary))
-    if owner is not None:
-        raise OptionError("summary", f"the summary {summary} is an input of "
-                                     f"{owner.where or owner.left}")
+                raise ValueError(f"{where}: the output {path} is an input ({owner}); an "
+                                 "output must not overwrite an input")
+            if real in written:
+                raise ValueError(f"{where}: its {role.replace('_', ' ')} {path} is also "
+                                 f"{written[real]}; give the pairs names whose outputs "
+                                 "differ")
+            written[real] = f"the {role.replace('_', ' ')} of {job.name!r}"
+            safety.check_target(path)
+    real = os.path.realpath(summary)
+    clash = inputs.get(real) or written.get(real.casefold())
+    if clash is not None:
+        raise OptionError("summary", f"the summary {summary} is {clash}"
+                          if real.casefold() in written else f"the summary {summary} is an input "
+                                                  f"({clash})")
+    safety.check_target(summary, "summary")
+    folder = Path(summary).parent
+    if folder != Path(out_dir) and not folder.is_dir():
+        raise OptionError("summary", f"folder {str(folder)!r} does not exist; create it "
+                                     "first")
 
 
 def run_job(task, calib=None, three_d=None, **match_options):
@@ -191,9 +221,8 @@ def run_job(task, calib=None, three_d=None, **match_options):
                                      outputs.get("cloud"), outputs.get("depth_preview"),
                                      colours, **(three_d or {}))
         atomic_write_all(items)
-    except (ImageError, ValueError, OSError) as exc:
-        message = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        return dict(entry, status="failed", error=message)
+    except Exception as exc:  # noqa: BLE001 (any error of one pair is that pair's, reported)
+        return dict(entry, status="failed", error=failure_message(exc))
     s = result.settings
     return dict(entry, status="ok", seconds=time.perf_counter() - start,
                 match_seconds=result.seconds, invalid=100.0 * result.invalid_share,
@@ -202,6 +231,18 @@ def run_job(task, calib=None, three_d=None, **match_options):
                 else range_source,  # "auto" also when only dmin was auto
                 calibration=calibration.as_dict() if calibration else None,
                 **{role: str(path) for role, path in outputs.items() if role != "map"})
+
+
+def failure_message(exc):
+    """One line for a pair's error: the message of csw's own errors, the reason and the
+    file of a system error, else the error's type and first line (a decoder's zlib
+    error, an overflow in a calibration ...)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
+    text = str(exc).splitlines()[0] if str(exc) else ""
+    if isinstance(exc, (ImageError, ValueError)) and text:
+        return text
+    return f"{type(exc).__name__}: {text}"[:300] if text else type(exc).__name__
 
 
 def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
@@ -258,6 +299,7 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     except ValueError as exc:
         raise OptionError("dmax", str(exc)) from None
     check_names(jobs)
+    check_max_depth(max_depth)
     summary = Path(summary) if summary else out_dir / "summary.json"
     extras = {}  # role -> the file name pattern of each pair's output
     for role, value in (("depth", depth), ("cloud", cloud), ("depth_preview", depth_preview)):
@@ -268,12 +310,13 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
                                         f"format, one of {', '.join(COMPANIONS[role])}; got "
                                         f"{value!r}")
             extras[role] = "{name}" + PER_PAIR_INFIX[role] + extra
-    if isinstance(calib, (str, Path)):
+    calib_path = calib if isinstance(calib, (str, Path)) else None
+    if calib_path is not None:
         calib = calib_module.read_calibration(calib)  # once, and a bad one fails first
     outputs = [{"map": out_dir / f"{job.name}{suffix}",
                 **{role: out_dir / pattern.format(name=job.name)
                    for role, pattern in extras.items()}} for job in jobs]
-    check_outputs(jobs, outputs, out_dir, summary)
+    check_outputs(jobs, outputs, out_dir, summary, calib_path)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -16,7 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .io import safety
 from .params import OptionError
+
+MAX_FILE_BYTES = 1 << 20  # a calibration is a few lines: a larger file is not one
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "km": 1000.0, "in": 0.0254,
          "ft": 0.3048}
@@ -144,14 +147,29 @@ def read_calibration(path):
     YAML/XML file with a Q node, or a 4x4 Q in a .npy file.  ValueError (an OptionError
     for "calib"), naming the file and what is missing, when it is none of them."""
     path = Path(path)
+    safety.protect(path)
     try:
+        kind = safety.kind_of(path)
+        if kind is None:
+            raise FileNotFoundError
+        if kind != "file":
+            raise OptionError("calib", f"{path} is a {kind}, not a calibration file")
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise OptionError("calib", f"{path}: {size} bytes is too large for a "
+                                       f"calibration (at most {MAX_FILE_BYTES})")
         if path.suffix.lower() == ".npy":
             return from_q(np.load(path, allow_pickle=False), str(path))
         text = path.read_text(errors="replace")
     except FileNotFoundError:
         raise OptionError("calib", f"{path}: no such file") from None
-    except (OSError, ValueError) as exc:
-        raise OptionError("calib", f"{path}: can't read it ({exc})") from None
+    except OptionError:
+        raise
+    except OSError as exc:
+        raise OptionError("calib", f"{path}: can't read it ({exc.strerror or exc})") from None
+    except (ValueError, EOFError) as exc:  # np.load's, for a file that is no .npy array
+        reason = str(exc).splitlines()[0][:100] if str(exc) else type(exc).__name__
+        raise OptionError("calib", f"{path}: not a readable .npy array ({reason})") from None
     try:
         if re.search(r"^\s*cam0\s*=", text, re.MULTILINE):
             return _middlebury(text, str(path))
@@ -161,7 +179,7 @@ def read_calibration(path):
             return from_q(_opencv_q(text, str(path)), str(path))
     except OptionError:
         raise
-    except ValueError as exc:
+    except (ValueError, OverflowError) as exc:
         raise OptionError("calib", str(exc)) from None
     raise OptionError("calib", f"{path}: not a calibration csw knows (Middlebury calib.txt "
                                "with cam0=..., KITTI calib with P2:/P3: or P_rect_02/03, "
@@ -170,6 +188,34 @@ def read_calibration(path):
 
 def _numbers(text):
     return [float(v) for v in re.findall(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", text)]
+
+
+def _number(text, key, source):
+    """A finite number written as ``text`` for ``key``; ValueError naming both."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"{source}: {key} must be a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{source}: {key} must be a finite number, got {text!r}")
+    return value
+
+
+def _count(text, key, source, low=1, high=10**6):
+    """A whole number from low to high written as ``text`` for ``key`` (a size, ndisp)."""
+    value = _number(text, key, source)
+    if value != int(value) or not low <= value <= high:
+        raise ValueError(f"{source}: {key} must be a whole number from {low} to {high}, "
+                         f"got {text!r}")
+    return int(value)
+
+
+def _matrix(text, key, source, size):
+    """``size`` finite numbers from a matrix's text; ValueError naming the key."""
+    numbers = _numbers(text)
+    if len(numbers) != size or not all(map(math.isfinite, numbers)):
+        raise ValueError(f"{source}: {key} must hold {size} finite numbers, got {text!r}")
+    return numbers
 
 
 def _middlebury(text, source):
@@ -181,17 +227,16 @@ def _middlebury(text, source):
         missing.append("doffs (or cam1)")
     if missing:
         raise ValueError(f"{source}: a Middlebury calib.txt without {', '.join(missing)}")
-    cam0 = _numbers(values["cam0"])
-    if len(cam0) != 9:
-        raise ValueError(f"{source}: cam0 must be a 3x3 matrix [f 0 cx; 0 f cy; 0 0 1]")
-    doffs = float(values["doffs"]) if "doffs" in values else \
-        _numbers(values["cam1"])[2] - cam0[2]
+    cam0 = _matrix(values["cam0"], "cam0 (a 3x3 matrix [f 0 cx; 0 f cy; 0 0 1])", source, 9)
+    doffs = _number(values["doffs"], "doffs", source) if "doffs" in values else \
+        _matrix(values["cam1"], "cam1", source, 9)[2] - cam0[2]
 
     def whole(key):
-        return int(float(values[key])) if key in values else None
+        return _count(values[key], key, source) if key in values else None
 
-    return Calibration(cam0[0], float(values["baseline"]), cam0[2], cam0[5], doffs, "mm",
-                       whole("width"), whole("height"), whole("ndisp"), source=source)
+    return Calibration(cam0[0], _number(values["baseline"], "baseline", source), cam0[2],
+                       cam0[5], doffs, "mm", whole("width"), whole("height"), whole("ndisp"),
+                       source=source)
 
 
 def _kitti(text, source):
@@ -204,9 +249,8 @@ def _kitti(text, source):
     if left is None or right is None:
         raise ValueError(f"{source}: a KITTI calibration without "
                          f"{'P3 (or P_rect_03)' if left else 'P2 (or P_rect_02)'}")
-    p2, p3 = (np.array(_numbers(r), np.float64) for r in (left, right))
-    if p2.size != 12 or p3.size != 12:
-        raise ValueError(f"{source}: P2 and P3 must hold 12 numbers each (3x4)")
+    p2, p3 = (np.array(_matrix(r, key, source, 12), np.float64)
+              for r, key in ((left, "P2"), (right, "P3")))
     p2, p3 = p2.reshape(3, 4), p3.reshape(3, 4)
     focal = p2[0, 0]
     if focal == 0:
@@ -216,7 +260,10 @@ def _kitti(text, source):
     size = re.search(r"^\s*S_rect_02\s*:\s*(.+?)\s*$", text, re.MULTILINE)
     width = height = None
     if size:
-        width, height = (int(round(v)) for v in _numbers(size.group(1))[:2])
+        found = _numbers(size.group(1))[:2]
+        if len(found) != 2:
+            raise ValueError(f"{source}: S_rect_02 must hold the width and height")
+        width, height = (_count(repr(v), "S_rect_02", source) for v in found)
     return Calibration(float(focal), float(baseline), float(p2[0, 2]), float(p2[1, 2]),
                        float(p3[0, 2] - p2[0, 2]), "m", width, height, source=source)
 
@@ -233,21 +280,41 @@ def _opencv_q(text, source):
             raise ValueError(f"{source}: not readable XML ({exc})") from None
         if node is None or node.find("data") is None:
             raise ValueError(f"{source}: no Q matrix with its data")
-        values = _numbers(node.find("data").text or "")
+        values = _opencv_numbers(node.find("data").text or "", source)
     else:
         found = re.search(r"^\s*Q\s*:.*?data\s*:\s*\[(.*?)\]", text, re.MULTILINE | re.DOTALL)
         if not found:
             raise ValueError(f"{source}: no Q matrix with its data: [...]")
-        values = _numbers(found.group(1))
+        values = _opencv_numbers(found.group(1), source)
     if len(values) != 16:
         raise ValueError(f"{source}: Q must be 4x4, got {len(values)} numbers")
     return np.array(values, np.float64).reshape(4, 4)
 
 
+def _opencv_numbers(text, source):
+    """The numbers of a FileStorage matrix's data, as written (YAML's .nan and .inf
+    included, so that the error says what is wrong with them)."""
+    values = []
+    for token in re.split(r"[\s,]+", text.strip()):
+        if not token:
+            continue
+        try:
+            values.append(float(token.lower().replace(".nan", "nan").replace(".inf", "inf")))
+        except ValueError:
+            raise ValueError(f"{source}: Q holds {token!r}, not a number") from None
+    if not all(map(math.isfinite, values)):
+        raise ValueError(f"{source}: Q must hold finite numbers, got "
+                         f"{', '.join(f'{v:g}' for v in values if not math.isfinite(v))}")
+    return values
+
+
 def from_q(q, source="Q"):
     """A Calibration from OpenCV's 4x4 reprojection matrix Q (stereoRectify's):
     f = Q[2,3], cx = -Q[0,3], cy = -Q[1,3], B = 1 / Q[3,2], doffs = Q[3,3] / Q[3,2]."""
-    q = np.asarray(q, np.float64)
+    q = np.asarray(q)
+    if q.dtype.kind not in "biuf" or q.dtype.names:
+        raise OptionError("calib", f"{source}: Q must hold real numbers, got {q.dtype}")
+    q = q.astype(np.float64)
     if q.shape != (4, 4) or not np.isfinite(q).all():
         raise OptionError("calib", f"{source}: Q must be a finite 4x4 matrix, got shape "
                                    f"{q.shape}")

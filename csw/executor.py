@@ -3,15 +3,24 @@ Batches (many pairs) and row stripes (one big pair) both go through :func:`run_t
 so they share cancellation, ordering and progress.
 """
 
+import itertools
 import sys
 
+# Tasks on a cluster's queue per worker thread: enough that no worker waits for the
+# next one, few enough that a million-pair batch holds a few dozen tasks at a time.
+IN_FLIGHT_PER_THREAD = 4
 
-def run_tasks(function, tasks, client=None, **kwargs):
+
+def run_tasks(function, tasks, client=None, in_flight=None, **kwargs):
     """Yield ``(index, function(task, **kwargs))`` for every task, as each finishes.
 
     client: None to run here, in order; or a ``dask.distributed.Client``, whose workers
-    run the tasks (a worker that dies has its tasks rerun elsewhere).  An error, or a
-    Ctrl-C in the caller, cancels the tasks not yet finished on the cluster.
+    run the tasks (a worker that dies has its tasks rerun elsewhere).  On a cluster at
+    most ``in_flight`` tasks (default: IN_FLIGHT_PER_THREAD per worker thread) are
+    submitted at a time, and one more as each finishes, so that the client, the
+    scheduler and this process hold a bounded number of tasks however many there are.
+    ``tasks`` may be any iterable.  An error, or a Ctrl-C in the caller, cancels the
+    tasks not yet finished on the cluster.
     """
     if client is None:
         for index, task in enumerate(tasks):
@@ -19,11 +28,25 @@ def run_tasks(function, tasks, client=None, **kwargs):
         return
     from dask.distributed import as_completed
 
-    futures = {client.submit(function, task, pure=False, **kwargs): index
-               for index, task in enumerate(tasks)}
+    limit = in_flight or IN_FLIGHT_PER_THREAD * max(1, sum(client.nthreads().values()))
+    pending = enumerate(tasks)
+    futures = {}  # the tasks in flight: future -> index
+    running = as_completed()
+
+    def submit(count):
+        for index, task in itertools.islice(pending, count):
+            future = client.submit(function, task, pure=False, **kwargs)
+            futures[future] = index
+            running.add(future)
+
     try:
-        for future in as_completed(futures):
-            yield futures[future], future.result()
+        submit(limit)
+        for future in running:
+            index = futures.pop(future)
+            result = future.result()
+            future.release()
+            submit(1)
+            yield index, result
     finally:
         client.cancel(list(futures))
 

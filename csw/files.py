@@ -4,15 +4,15 @@ row stripes (:mod:`csw.tiled`) when asked, when a format needs it, or when the p
 not fit the memory limit.  Both give the same map, bit for bit.
 """
 
-import os
 from pathlib import Path
 
 import numpy as np
 
 from . import calib as calib_module
 from . import kernels
-from .geometry import CLOUD_SUFFIXES, DEPTH_SUFFIXES
+from .geometry import CLOUD_SUFFIXES, DEPTH_SUFFIXES, check_max_depth
 from .geometry import writers as three_d_writers
+from .io import safety
 from .io.atomic import atomic_write_all
 from .io.formats import (
     check_range,
@@ -31,6 +31,13 @@ from .whole import match
 # What each companion output may be, by role (csw.io.formats.suffixes).
 COMPANIONS = {"preview": (".png",), "cost_map": (".pfm",), "plot": (".png",),
               "depth": DEPTH_SUFFIXES, "cloud": CLOUD_SUFFIXES, "depth_preview": (".png",)}
+
+
+# An upper bound of each output's size, per pixel: float maps, a 16-bit PNG map, RGB
+# pictures, a PLY's point (3 floats and 3 bytes).  A striped match keeps temporary
+# stores of about 8 more beside its map.
+BYTES_PER_PIXEL = {"output": 4, "confidence": 4, "preview": 3, "cost_map": 4, "depth": 4,
+                   "cloud": 15, "depth_preview": 3}
 
 
 def match_files(left, right, output, *, confidence=None, preview=None, cost_map=None,
@@ -80,18 +87,27 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
         An input that can't be read (its ``option`` names it: "left" or "right").
     """
     calibration = calib_module.resolve(calib, left)
-    width = None
+    try:
+        shape = open_source(left, "left", probe=False, striped=memory_limit is not None).shape
+    except ImageError as exc:
+        exc.option = "left"
+        raise
+    width = shape[1]
     if calibration is not None:
-        shape = open_source(left, "left", probe=False).shape
         calibration.check_size(shape)
-        width = shape[1]
     options, range_note = calib_module.with_range(calibration, options, width)
     opts = resolve(**options)
     outputs = {"output": output, "confidence": confidence, "preview": preview,
                "cost_map": cost_map, "depth": depth, "cloud": cloud,
                "depth_preview": depth_preview}
-    check_outputs({"left": left, "right": right}, outputs)
+    check_outputs({"left": left, "right": right,
+                   "calib": calib if isinstance(calib, (str, Path)) else None}, outputs)
     three_d = [name for name in ("depth", "cloud", "depth_preview") if outputs[name]]
+    check_max_depth(max_depth)
+    striped = _use_stripes(left, right, output, confidence, memory_limit, client, opts)
+    safety.check_space((path, shape[0] * shape[1] * BYTES_PER_PIXEL[name]
+                        + (8 * shape[0] * shape[1] if striped and name == "output" else 0))
+                       for name, path in outputs.items() if path is not None)
     if three_d and calibration is None:
         raise OptionError("calib", f"the {three_d[0].replace('_', ' ')} needs the pair's "
                                    "calibration: give one (a calib.txt, KITTI calib, "
@@ -100,7 +116,7 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
         check_range(output, opts["dmax"], opts["dmin"])
     except ValueError as exc:
         raise OptionError("dmax", str(exc)) from None
-    if _use_stripes(left, right, output, confidence, memory_limit, client, opts):
+    if striped:
         for name in ("cost_map", *three_d):
             if outputs[name] is not None:
                 raise OptionError(name, f"the {name.replace('_', ' ')} is not written for "
@@ -168,31 +184,8 @@ def _use_stripes(left, right, output, confidence, memory_limit, client, opts):
 
 
 def check_outputs(inputs, outputs):
-    """Before any work: every output (name -> path or None) has a suffix its role allows,
-    lies in a folder that exists and can be written, is not a folder (save a zarr store),
-    and overwrites neither an input nor another output.  OptionError naming the output."""
-    seen = {os.path.realpath(path): name for name, path in inputs.items()
-            if path is not None}
-    for name, path in outputs.items():
-        if path is None:
-            continue
-        path = Path(path)
-        allowed = COMPANIONS.get(name) or suffixes("confidence" if name == "confidence"
-                                                   else "map")
-        if path.suffix.lower() not in allowed:
-            raise OptionError(name, f"unknown extension {path.suffix or '(none)'!r}; use "
-                                    f"{', '.join(allowed)}")
-        folder = path.parent if str(path.parent) else Path(".")
-        if not folder.is_dir():
-            raise OptionError(name, f"folder {str(folder)!r} does not exist; create it first")
-        if not os.access(folder, os.W_OK):
-            raise OptionError(name, f"folder {str(folder)!r} is not writable")
-        if path.is_dir() and not (path.suffix.lower() == ".zarr" and
-                                  (path / "zarr.json").exists()):
-            raise OptionError(name, f"{str(path)!r} is a directory")
-        key = os.path.realpath(path)
-        if key in seen:
-            raise OptionError(name, f"{path} is also given as {seen[key]}; an output must "
-                                    "not overwrite an input or another output")
-        seen[key] = name
-
+    """Before any work: csw.io.safety.check_outputs with each output's suffixes by its
+    role (COMPANIONS, else the map formats; a confidence map's float ones)."""
+    allowed = {name: COMPANIONS.get(name) or suffixes("confidence" if name == "confidence"
+                                                      else "map") for name in outputs}
+    safety.check_outputs(inputs, outputs, allowed)

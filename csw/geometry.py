@@ -5,11 +5,13 @@ OpenCV's reprojection, [X Y Z W] = Q [x y d 1] (x right, y down, z forward, in t
 camera's frame), so they equal cv2.reprojectImageTo3D's for the same Q.
 """
 
+import math
 from pathlib import Path
 
 import numpy as np
 
 from .io.formats import as_float_disparity
+from .params import OptionError
 
 # A turbo-like ramp, dark blue to dark red, by linear interpolation between these colours
 # (sampled from Google's Turbo colormap), so no plotting library is needed.
@@ -28,7 +30,21 @@ def _homogeneous(disparity, calib):
     out = [q[i, 0] * x + q[i, 1] * y + q[i, 2] * d + q[i, 3] for i in range(4)]
     with np.errstate(divide="ignore", invalid="ignore"):
         valid = np.isfinite(disp) & (out[3] * np.sign(q[2, 3]) > 0)
+    if not valid.any() and np.isfinite(disp).any():
+        raise OptionError("calib", f"{calib.source}: with it no disparity of the map gives "
+                                   "a point in front of the cameras (d + doffs is never "
+                                   f"positive: focal {calib.focal:g}, baseline "
+                                   f"{calib.baseline:g}, doffs {calib.doffs:g}); check the "
+                                   "calibration's signs and that it is this pair's")
     return out, valid
+
+
+def check_max_depth(max_depth):
+    """ValueError unless max_depth is None or a positive finite number."""
+    if max_depth is not None and not (isinstance(max_depth, (int, float, np.number))
+                                      and math.isfinite(max_depth) and max_depth > 0):
+        raise OptionError("max_depth", f"max_depth must be a positive finite number, got "
+                                       f"{max_depth!r}")
 
 
 def depth(disparity, calib, units=None):
@@ -49,6 +65,7 @@ def point_cloud(disparity, calib, image=None, max_depth=None, units=None):
     8 or 16 bits, for the colours.  max_depth: drop points farther than this (in the
     output's units).  Pixels with no valid disparity, or behind the cameras, are left
     out."""
+    check_max_depth(max_depth)
     scale = calib.scale_to(units)
     (x, y, z, w), valid = _homogeneous(disparity, calib)
     if max_depth is not None:
@@ -63,12 +80,12 @@ def _colours(image, valid):
         return None
     image = np.asarray(image)
     if image.shape[:2] != valid.shape:
-        raise ValueError(f"the image is {image.shape[1]}x{image.shape[0]} but the "
-                         f"disparity map is {valid.shape[1]}x{valid.shape[0]}")
+        raise OptionError("image", f"the image is {image.shape[1]}x{image.shape[0]} but "
+                                   f"the disparity map is {valid.shape[1]}x{valid.shape[0]}")
     if image.dtype == np.uint16:
         image = (image >> 8).astype(np.uint8)
     if image.dtype != np.uint8:
-        raise ValueError(f"the image must be 8- or 16-bit, got {image.dtype}")
+        raise OptionError("image", f"the image must be 8- or 16-bit, got {image.dtype}")
     if image.ndim == 2:
         image = np.repeat(image[..., None], 3, axis=2)
     return np.ascontiguousarray(image[..., :3][valid])

@@ -52,6 +52,18 @@ def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None
     if right is not None:
         kernels.contract.check_pair(shape, dtype, *right)
     height, width = shape
+    if opts["window"] > min(height, width):  # said of the pair, not of a stand-in
+        raise params.OptionError("window", f"window {opts['window']} is larger than the "
+                                           f"image ({width}x{height}); use a smaller window")
+    for bound in ("dmin", "dmax"):
+        if opts[bound] != "auto" and opts[bound] >= width:
+            raise params.OptionError(bound, f"{bound} ({opts[bound]}) must be less than the "
+                                            f"image width ({width}); lower {bound}")
+    if opts["cost"] == "census":  # before any work: a census too wide for 64 bits
+        try:
+            kernels.contract.census_dtype(opts["census_window"], opts["census_pattern"])
+        except ValueError as exc:
+            raise params.OptionError("census_window", str(exc)) from None
     range_source = opts.get("range_source", "given")
     if "auto" in (opts["dmin"], opts["dmax"]):
         from .autorange import estimate, factor

@@ -2,6 +2,8 @@
 imported only when it runs (a command's imports are what its start-up costs)."""
 
 import importlib
+import os
+import signal
 import sys
 
 import click
@@ -37,6 +39,14 @@ class LazyGroup(click.Group):
         command.short_help = short_help
         return command
 
+    def invoke(self, ctx):
+        # Every file a command reads is an input that none of its writes may replace
+        # (csw.io.safety), whatever the command.
+        from csw.io.safety import guarding
+
+        with guarding():
+            return super().invoke(ctx)
+
     def format_commands(self, ctx, formatter):
         rows = [(name, COMMANDS[name][2]) for name in self.list_commands(ctx)]
         with formatter.section("Commands"):
@@ -56,18 +66,73 @@ def cli():
 
 
 
+class Stopped(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised in the main thread as Ctrl-C is, so that every path that
+    cleans up after a Ctrl-C (temporary files, a batch's summary, a cluster's tasks)
+    does so for them too."""
+
+    def __init__(self, signum):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _stop(signum, frame):
+    raise Stopped(signum)
+
+
+def stop_on_signals():
+    """SIGTERM (a scheduler ending a job) and SIGHUP (a closed terminal) behave like
+    Ctrl-C: the work stops, nothing partial stays, and the exit code is 128 + the
+    signal's number."""
+    for name in ("SIGTERM", "SIGHUP"):
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), _stop)
+
+
+def _quiet_stdout():
+    """Point standard output at /dev/null, so that the interpreter's last flush of what
+    could not be written raises nothing more."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
 def main(args=None):
-    """The ``csw`` entry point: the group, with Ctrl-C reported as an interrupt (exit 130,
-    one line) instead of Click's "Aborted!" and exit 1.  Outputs are written through
-    temporary files, so an interrupted run leaves none behind."""
+    """The ``csw`` entry point: the group, with Ctrl-C, SIGTERM and SIGHUP reported as an
+    interrupt (exit 128 + the signal, one line) instead of Click's "Aborted!" and exit
+    1.  Outputs are written through temporary files, so an interrupted run leaves none
+    behind."""
+    stop_on_signals()
     try:
         code = cli.main(args=args, prog_name="csw", standalone_mode=False)
-    except (KeyboardInterrupt, click.exceptions.Abort):
-        click.echo("csw: interrupted; no partial file was left", err=True)
-        sys.exit(130)
+        sys.stdout.flush()  # here, where a full disk or a closed pipe can be reported
+    except OSError as exc:
+        _quiet_stdout()
+        where = "can't write standard output" if exc.filename is None else exc.filename
+        click.echo(f"Error: {where}: {exc.strerror or exc}", err=True)
+        sys.exit(1)
+    except click.exceptions.Abort as exc:
+        if isinstance(exc.__context__, EOFError):  # Click's Abort for an EOFError: a file
+            click.echo("Error: a file ended before its data did "  # ended, not a Ctrl-C
+                       f"({exc.__context__ or 'unexpected end of file'})", err=True)
+            sys.exit(1)
+        _interrupted(getattr(exc.__context__, "signum", signal.SIGINT))
+    except KeyboardInterrupt as exc:
+        _interrupted(getattr(exc, "signum", signal.SIGINT))
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)
     except click.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)
     sys.exit(code if isinstance(code, int) else 0)
+
+
+def _interrupted(signum):
+    """Say how the run ended, and exit 128 + the signal's number."""
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the clean-up is done: go quietly
+    what = "interrupted" if signum == signal.SIGINT else \
+        f"stopped by {signal.Signals(signum).name}"
+    click.echo(f"csw: {what}; no partial file was left", err=True)
+    sys.exit(128 + signum)

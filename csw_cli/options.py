@@ -16,26 +16,40 @@ from csw.params import OPTIONS
 FORMATS = ["table", "github", "latex", "csv", "json"]
 
 
+class InputError(click.ClickException):
+    """A bad value or file that the command line itself got right: exit 2, and one line,
+    "Error: Invalid value for OPTION: why", without the usage lines Click puts before a
+    malformed command line's error."""
+
+    exit_code = 2
+
+    def __init__(self, message, hint=None):
+        super().__init__(message)
+        self.hint = hint
+
+    def format_message(self):
+        return f"Invalid value for {self.hint}: {self.message}" if self.hint else \
+            self.message
+
+
 @contextlib.contextmanager
 def library_errors(hint=None):
-    """Turn the library's errors into Click's.  A bad value is a usage error (exit 2),
-    naming the option it belongs to (the error's ``option``, as a flag of the running
-    command) or ``hint``; registry data that can't be had is a runtime error (exit 1)."""
+    """Turn the library's errors into Click's.  A bad value or file is an InputError
+    (exit 2, one line), naming the option it belongs to (the error's ``option``, as a
+    flag of the running command) or ``hint``; registry data that can't be had is a
+    runtime error (exit 1)."""
     from csw import DataError, ImageError
 
     try:
         yield
     except ImageError as exc:
-        raise click.BadParameter(str(exc), param_hint=_hint(exc) or hint) from None
+        raise InputError(str(exc), _hint(exc) or hint) from None
     except DataError as exc:
         if hint:
-            raise click.BadParameter(str(exc), param_hint=hint) from None
+            raise InputError(str(exc), hint) from None
         raise click.ClickException(str(exc)) from None
     except ValueError as exc:
-        where = _hint(exc) or hint
-        if where:
-            raise click.BadParameter(str(exc), param_hint=where) from None
-        raise click.UsageError(str(exc)) from None
+        raise InputError(str(exc), _hint(exc) or hint) from None
     except ImportError as exc:
         raise click.ClickException(str(exc)) from None
 

@@ -171,15 +171,30 @@ def census_places(census_window, pattern=DEFAULT_CENSUS_PATTERN):
     return tuple(places)
 
 
+def census_bits(census_window, pattern=DEFAULT_CENSUS_PATTERN):
+    """len(census_places(census_window, pattern)), counted without listing the places
+    (a window of 99999 would list 10**10 of them)."""
+    h = census_window // 2
+    if pattern == "dense":
+        return census_window * census_window - 1
+    even = 2 * (h // 2) + 1  # offsets -h..h that are even
+    # The (even, even) places but the centre, and the centre's 8 neighbours, none of
+    # which is one of them.
+    return even * even - 1 + (8 if h >= 1 else 0)
+
+
 @functools.cache
 def census_dtype(census_window, pattern=DEFAULT_CENSUS_PATTERN):
     """The narrowest unsigned type holding a census code of this window and pattern."""
-    bits = len(census_places(census_window, pattern))
+    if pattern not in CENSUS_PATTERNS:
+        raise ValueError(f"census pattern must be one of {', '.join(CENSUS_PATTERNS)}, "
+                         f"got {pattern!r}")
+    bits = census_bits(census_window, pattern)
     for dtype in (np.uint8, np.uint16, np.uint32, np.uint64):
         if bits <= np.iinfo(dtype).bits:
             return dtype
-    largest = max(c for c in range(3, census_window, 2)
-                  if len(census_places(c, pattern)) <= MAX_CENSUS_BITS)
+    largest = max(c for c in range(3, min(census_window, 65), 2)
+                  if census_bits(c, pattern) <= MAX_CENSUS_BITS)
     fix = f"use a census window of {largest} or less" + (
         " or the sparse pattern" if pattern == "dense" else "")
     raise ValueError(f"a {pattern} {census_window}x{census_window} census has {bits} bits, "

@@ -24,9 +24,13 @@ def cores():
 def max_threads():
     """The threads csw may use: NUMBA_NUM_THREADS where set (Dask workers set it to share
     the cores between them), else cores()."""
-    value = os.environ.get("NUMBA_NUM_THREADS")
+    value = os.environ.get("NUMBA_NUM_THREADS", "").strip()
     if value:
-        return max(1, int(value))
+        try:
+            return max(1, int(value))
+        except ValueError:
+            raise ValueError(f"NUMBA_NUM_THREADS must be a whole number of threads, got "
+                             f"{value!r}") from None
     return cores()
 
 

@@ -158,8 +158,9 @@ def big_pair(work, side):
     left, right = folder / "left.tif", folder / "right.tif"
     rows = []
     # Here: `csw match`, in a process of its own, as a user runs it.
+    # Over csw's pixel limit: a memory limit (the default one) is the user's word for it.
     cmd = ["csw", "match", str(left), str(right), "-o", str(work / "big-here.tif"),
-           "--dmax", str(BIG_DMAX)]
+           "--dmax", str(BIG_DMAX), "--memory-limit", str(DEFAULT_MEMORY_LIMIT)]
     done = subprocess.run([sys.executable, "-c", PEAK_PROBE, *cmd], capture_output=True,
                           text=True, check=True)
     code, seconds, peak_kib = done.stdout.splitlines()[0].split()
@@ -176,7 +177,8 @@ def big_pair(work, side):
         match_tiled(warm / "left.tif", warm / "right.tif", warm / "d.tif", dmax=BIG_DMAX,
                     client=client)
         seconds, result = timed(lambda: match_tiled(left, right, work / "big-dask.tif",
-                                                    dmax=BIG_DMAX, client=client))
+                                                    dmax=BIG_DMAX, client=client,
+                                                    memory_limit=DEFAULT_MEMORY_LIMIT))
         peaks = [v / 2**20 for v in client.run(worker_peak).values()]
     finally:
         close(client)

@@ -1,12 +1,32 @@
 """Atomic writes: every file csw writes goes to a temporary file beside its target and is
-renamed into place, so a failure or an interrupt never leaves a partial file behind."""
+renamed into place, so a failure, an interrupt or a signal never leaves a partial file
+behind; and every target passes :func:`csw.io.safety.check_target` first, so a write
+never replaces an input, a device or anything but a regular file.
 
+Temporary files and folders are named ``.csw-tmp.<name>.<host>-<pid>-<random>.tmp``:
+the writer's host and process, so that the next csw run that writes into the folder
+removes what a killed process (``kill -9``, a crash) left there, at once; one whose
+writer can't be known (another host's, an older csw's) goes once it is a day old.
+"""
+
+import hashlib
 import os
+import re
+import shutil
+import socket
 import tempfile
+import time
 from pathlib import Path
 
-TMP_PREFIX = ".csw-tmp."  # temporary files: .csw-tmp.<name>.<random>.tmp beside the target
+from . import safety
+
+TMP_PREFIX = ".csw-tmp."
 STALE_SECONDS = 24 * 3600  # a temporary file this old was left by a killed process
+NAME_BYTES = 96  # of the target's name kept in a temporary's: the whole must fit 255
+HOST = hashlib.sha256(socket.gethostname().encode()).hexdigest()[:8]
+_TEMPORARY = re.compile(r"^\.csw-tmp\.(?P<name>.*)\.(?P<host>[0-9a-f]{8})-(?P<pid>\d+)-"
+                        r"[A-Za-z0-9_]+\.tmp$", re.DOTALL)
+_SWEPT = set()  # (pid, folder): swept once per process, not once per file written
 
 
 def _mode_for(path):
@@ -20,30 +40,87 @@ def _mode_for(path):
         return 0o666 & ~umask
 
 
-def _clean_stale(directory, name):
-    """Remove this target's temporary files that a killed process left behind (older
-    than a day, so that a concurrent writer's file is never touched)."""
-    import time
+def _short(name):
+    """The target's name as a temporary's name holds it: at most NAME_BYTES bytes."""
+    return name.encode()[:NAME_BYTES].decode(errors="ignore")
 
+
+def temporary_prefix(name):
+    """The prefix of a temporary file or folder for target ``name``, by this process."""
+    return f"{TMP_PREFIX}{_short(name)}.{HOST}-{os.getpid()}-"
+
+
+def make_temporary_dir(folder, name):
+    """A new temporary folder beside target ``name`` in ``folder`` (removed by the next
+    run if this process dies before it does)."""
+    sweep(folder)
+    return Path(tempfile.mkdtemp(prefix=temporary_prefix(name), suffix=".tmp", dir=folder))
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # someone else's process: alive
+        return True
+    return True
+
+
+def _leftover(entry, now):
+    """Whether directory entry ``entry`` is a temporary whose writer is gone."""
+    found = _TEMPORARY.match(entry.name)
+    if found and found["host"] == HOST and int(found["pid"]) != os.getpid():
+        return not _alive(int(found["pid"]))
+    if found and found["host"] == HOST:
+        return False  # this process's own, in use
+    try:
+        return now - entry.stat(follow_symlinks=False).st_mtime > STALE_SECONDS
+    except OSError:
+        return False
+
+
+def _remove(entry):
+    try:
+        if entry.is_dir(follow_symlinks=False):
+            shutil.rmtree(entry.path, ignore_errors=True)
+        else:
+            os.unlink(entry.path)
+    except OSError:
+        pass
+
+
+def sweep(folder):
+    """Remove the temporaries in ``folder`` that killed writers left behind (see the
+    module's docstring); once per process and folder."""
+    folder = Path(folder) if str(folder) else Path(".")
+    key = (os.getpid(), os.path.realpath(folder))
+    if key in _SWEPT:
+        return
+    _SWEPT.add(key)
     now = time.time()
-    for old in Path(directory).glob(f"{TMP_PREFIX}{name}.*.tmp"):
-        try:
-            if now - old.stat().st_mtime > STALE_SECONDS:
-                old.unlink()
-        except OSError:
-            pass
+    try:
+        with os.scandir(folder) as entries:
+            for entry in entries:
+                if entry.name.startswith(TMP_PREFIX) and _leftover(entry, now):
+                    _remove(entry)
+    except OSError:
+        pass
 
 
 def remove_temporaries(path):
-    """Remove every temporary file of target ``path``, whatever its age: for a caller that
+    """Remove every temporary of target ``path``, whatever its writer: for a caller that
     knows no writer of it is still running (a batch whose tasks have all finished, after
-    a killed worker left one behind)."""
+    a killed worker left one behind).  The name is compared, never globbed."""
     path = Path(path)
-    for tmp in path.parent.glob(f"{TMP_PREFIX}{path.name}.*.tmp"):
-        try:
-            tmp.unlink()
-        except OSError:
-            pass
+    try:
+        with os.scandir(path.parent if str(path.parent) else ".") as entries:
+            for entry in entries:
+                found = _TEMPORARY.match(entry.name)
+                if found and found["name"] == _short(path.name):
+                    _remove(entry)
+    except OSError:
+        pass
 
 
 def atomic_write(path, write_to):
@@ -51,7 +128,8 @@ def atomic_write(path, write_to):
     interrupt never leaves a partial file at ``path``.
 
     The file gets the mode a normal write gives (an existing file's, else 0666 less the
-    umask); a symlink is followed, and its target written (atomically) in place.
+    umask); a symlink to a regular file is followed, and its target written
+    (atomically) in place.
     """
     atomic_write_all([(path, write_to)])
 
@@ -59,18 +137,28 @@ def atomic_write(path, write_to):
 def atomic_write_all(items):
     """Several files as one: every ``(path, write_to)`` is written to its temporary file
     first, and only when all succeeded are they renamed into place, so an error or a
-    Ctrl-C leaves either all of them or none (save for the instant of the renames)."""
+    Ctrl-C leaves either all of them or none (save for the instant of the renames).
+    OSError naming the file when a write fails; ValueError (before anything is
+    written) for a target that is not to be written (csw.io.safety.check_target)."""
+    targets = []
+    for path, _ in items:
+        safety.check_target(path)
+        targets.append(Path(os.path.realpath(path)) if os.path.islink(path) else Path(path))
     staged = []
     try:
-        for path, write_to in items:
-            path = Path(os.path.realpath(path)) if os.path.islink(path) else Path(path)
+        for path, (_, write_to) in zip(targets, items, strict=True):
             directory = path.parent if str(path.parent) else Path(".")
-            _clean_stale(directory, path.name)
-            fd, tmp = tempfile.mkstemp(prefix=f"{TMP_PREFIX}{path.name}.", suffix=".tmp",
+            sweep(directory)
+            fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path.name), suffix=".tmp",
                                        dir=directory)
             os.close(fd)
             staged.append((tmp, path))
-            write_to(tmp)
+            try:
+                write_to(tmp)
+            except OSError as exc:  # named as the user knows it, not as the temporary
+                if exc.errno is not None and exc.filename in (None, tmp):
+                    raise OSError(exc.errno, exc.strerror, str(path)) from None
+                raise
             os.chmod(tmp, _mode_for(path))
         for tmp, path in staged:
             os.replace(tmp, path)
@@ -79,5 +167,3 @@ def atomic_write_all(items):
             if os.path.exists(tmp):
                 os.unlink(tmp)
         raise
-
-

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import safety
 from .atomic import atomic_write
 from .images import ImageError, read_image
 
@@ -139,7 +140,11 @@ def png_writer(image):
     """A ``write_to(tmp)`` for a uint8/uint16 image (gray or RGB) as PNG."""
     import imageio.v3 as iio
 
-    return lambda tmp: iio.imwrite(tmp, image, extension=".png")
+    def write(tmp):
+        # Encoded in memory, then written: a plugin writing to a full disk fails again
+        # when it is collected, and that second error would reach the user's terminal.
+        Path(tmp).write_bytes(iio.imwrite("<bytes>", image, extension=".png"))
+    return write
 
 
 def _npy_writer(values):
@@ -188,6 +193,7 @@ def read_disparity(path, scale=None):
     unless given (Middlebury ground truth: see the dataset's scale).
     """
     path = Path(path)
+    safety.protect(path)
     return format_of(path, "read").read(path, scale)
 
 

@@ -10,9 +10,12 @@ from pathlib import Path
 
 import numpy as np
 
+from . import safety
 
-class ImageError(Exception):
-    """An input file that can't be used as a stereo image; the message says why."""
+
+class ImageError(ValueError):
+    """An input file that can't be used as a stereo image; the message says why (a
+    ValueError, as every bad input to csw is)."""
 
 
 def luma(rgb):
@@ -25,10 +28,13 @@ def luma(rgb):
 
 
 def to_gray(image, name="image"):
-    """Normalise a decoded image array to uint8/uint16 (H, W)."""
+    """Normalise a decoded image array to uint8/uint16 (H, W), in the machine's byte
+    order (a big-endian 16-bit TIFF's pixels are byte-swapped, not refused)."""
     image = np.asarray(image)
     if image.dtype == np.bool_:
         image = image.astype(np.uint8) * 255
+    if image.dtype.kind == "u" and not image.dtype.isnative:
+        image = image.astype(image.dtype.newbyteorder("="))
     if image.dtype not in (np.uint8, np.uint16):
         raise ImageError(f"{name}: pixels are {image.dtype}; csw reads 8- or 16-bit images")
     if image.ndim == 3:
@@ -48,105 +54,147 @@ def to_gray(image, name="image"):
     return np.ascontiguousarray(image)
 
 
+# Pillow's own refusal point for decompression bombs (twice its MAX_IMAGE_PIXELS): the
+# largest image csw decodes unless CSW_MAX_PIXELS says otherwise.
+DEFAULT_MAX_PIXELS = 178_956_970
+
+
+def max_pixels():
+    """The pixel limit: CSW_MAX_PIXELS where set, else DEFAULT_MAX_PIXELS."""
+    value = os.environ.get("CSW_MAX_PIXELS", "").strip()
+    if not value:
+        return DEFAULT_MAX_PIXELS
+    try:
+        limit = int(value)
+    except ValueError:
+        raise ImageError(f"CSW_MAX_PIXELS must be a whole number, got {value!r}") from None
+    if limit < 1:
+        raise ImageError(f"CSW_MAX_PIXELS must be at least 1, got {value!r}")
+    return limit
+
+
+def check_pixels(shape, path, striped=False):
+    """ImageError when an image of ``shape`` (H, W), as its header declares it, is over
+    the pixel limit: a hostile or mistaken header must not start a run that allocates
+    or writes without bound.  striped: the user asked for a striped match with a memory
+    limit, which bounds its memory, so the limit does not apply."""
+    height, width = (int(n) for n in shape[:2])
+    limit = max_pixels()
+    if height * width > limit and not striped:
+        raise ImageError(f"{path}: the image is {width}x{height}, {height * width} pixels, "
+                         f"more than the safety limit of {limit}; set CSW_MAX_PIXELS to a "
+                         "larger number, or give --memory-limit to match it in stripes")
+
+
 def read_image(path):
     """Read an image file as uint8/uint16 gray (H, W); raise ImageError when unusable."""
-    import imageio.v3 as iio
-
     path = Path(path)
+    safety.protect(path)
     if path.suffix.lower() == ".pfm":
         raise ImageError(f"{path}: PFM holds float data; give an 8- or 16-bit image")
-    _pixel_limit()
-    if _is_16bit_colour_png(path):
-        return to_gray(_read_png16(path), str(path))
+    return to_gray(_decode(path), str(path))
+
+
+def read_colour(path):
+    """An image file as it is, for colours: uint8/uint16 (H, W) gray or (H, W, 3) RGB
+    (alpha dropped, palettes expanded, CMYK converted); ImageError when unusable."""
+    path = Path(path)
+    safety.protect(path)
+    image = _decode(path)
+    if image.dtype.kind == "u" and not image.dtype.isnative:
+        image = image.astype(image.dtype.newbyteorder("="))
+    if image.ndim == 3 and image.shape[2] == 2:  # gray + alpha
+        image = image[..., 0]
+    return np.ascontiguousarray(image[..., :3] if image.ndim == 3 else image)
+
+
+def _decode(path):
+    """An image file's pixels as stored (H, W) or (H, W, C), after its header passed the
+    pixel limit; ImageError, one line, when it can't be read.
+
+    16-bit PNGs with colour or alpha are read with pypng (Pillow cuts them to 8 bits),
+    TIFFs with tifffile (as the striped path reads them, so both see the same pixels),
+    CMYK (JPEG) converted to RGB, everything else by Pillow through imageio (palettes
+    expanded, the first frame of multi-frame files)."""
+    png16 = _png16_header(path)
+    if png16 is not None:
+        check_pixels(png16, path)
+        return _read_png16(path)
+    mode, kind, shape = _header(path)
+    check_pixels(shape, path)
+    if kind == "TIFF":
+        from .sources import TiffSource
+
+        source = TiffSource(path)
+        return source.raw_rows(0, source.shape[0])
     try:
-        # Pillow decodes every format csw reads (PNG, PPM/PGM, TIFF, BMP, JPEG), expands
-        # palettes to their colours, and fails fast on anything else; index=0 takes the
-        # first frame of multi-frame files.
-        image = iio.imread(path, plugin="pillow", index=0)
+        if mode == "CMYK":
+            from PIL import Image
+
+            with Image.open(path) as image:
+                return np.asarray(image.convert("RGB"))
+        import imageio.v3 as iio
+
+        return iio.imread(path, plugin="pillow", index=0)
+    except Exception as exc:  # decoders raise many types for damaged data
+        raise ImageError(f"{path}: not a readable image ({_reason(exc)})") from None
+
+
+def _reason(exc):
+    return (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)[:120]
+
+
+def _header(path):
+    """(mode, format, (H, W)) from the file's header, read by Pillow without decoding
+    the pixels; ImageError saying why when it can't be opened."""
+    import warnings
+
+    from PIL import Image
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            Image.MAX_IMAGE_PIXELS = None  # the limit is csw's own (check_pixels)
+            with Image.open(path) as image:
+                return image.mode, image.format, (image.height, image.width)
     except FileNotFoundError:
         raise ImageError(f"{path}: no such file") from None
     except IsADirectoryError:
         raise ImageError(f"{path}: is a directory, not an image") from None
     except PermissionError:
         raise ImageError(f"{path}: permission denied") from None
-    except Exception as exc:  # imageio raises many types for undecodable data
-        too_large = _too_large(exc)
-        if too_large:
-            raise ImageError(f"{path}: {too_large}") from None
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ImageError(f"{path}: not a readable image ({reason[:120]})") from None
-    return to_gray(image, str(path))
+    except OSError as exc:
+        if exc.errno is not None and exc.strerror:  # a system error, not the data's
+            raise ImageError(f"{path}: can't read it ({exc.strerror})") from None
+        raise ImageError(f"{path}: not a readable image ({_reason(exc)})") from None
+    except Exception as exc:
+        raise ImageError(f"{path}: not a readable image ({_reason(exc)})") from None
 
 
-def read_colour(path):
-    """An image file as it is, for colours: uint8/uint16 (H, W) gray or (H, W, 3) RGB
-    (alpha dropped, palettes expanded); ImageError when unusable."""
-    import imageio.v3 as iio
-
-    path = Path(path)
-    if _is_16bit_colour_png(path):
-        image = _read_png16(path)
-    else:
-        try:
-            image = iio.imread(path, plugin="pillow", index=0)
-        except FileNotFoundError:
-            raise ImageError(f"{path}: no such file") from None
-        except Exception as exc:
-            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise ImageError(f"{path}: not a readable image ({reason[:120]})") from None
-    if image.ndim == 3 and image.shape[2] == 2:  # gray + alpha
-        image = image[..., 0]
-    return np.ascontiguousarray(image[..., :3] if image.ndim == 3 else image)
-
-
-def _is_16bit_colour_png(path):
-    """Whether ``path`` is a PNG with 16-bit RGB(A) pixels, which Pillow would cut to 8
-    bits: its IHDR says bit depth 16 and colour type 2 (RGB) or 6 (RGBA)."""
+def _png16_header(path):
+    """(H, W) of a PNG with 16-bit pixels and colour or alpha, which Pillow would cut to
+    8 bits (IHDR: bit depth 16, colour type 2 RGB, 4 gray + alpha or 6 RGBA); None for
+    any other file."""
     try:
         with open(path, "rb") as f:
             head = f.read(26)
     except OSError:
-        return False  # the normal path reports the error
-    return (len(head) == 26 and head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR"
-            and head[24] == 16 and head[25] in (2, 6))
+        return None  # the normal path reports the error
+    if (len(head) == 26 and head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR"
+            and head[24] == 16 and head[25] in (2, 4, 6)):
+        width, height = int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+        return height, width
+    return None
 
 
 def _read_png16(path):
-    """A 16-bit RGB(A) PNG as uint16 (H, W, 3|4), with pypng (Pillow has no such mode)."""
+    """A 16-bit PNG with colour or alpha as uint16 (H, W, planes), with pypng."""
     import png
 
     try:
         width, height, rows, info = png.Reader(filename=str(path)).asDirect()
         planes = info["planes"]
         image = np.vstack([np.asarray(row, np.uint16) for row in rows])
-    except (png.Error, ValueError, OSError) as exc:
-        raise ImageError(f"{path}: not a readable image ({str(exc)[:120]})") from None
-    return image.reshape(height, width, planes)
-
-
-def _pixel_limit():
-    """Pillow's decompression-bomb limit, raised by CSW_MAX_PIXELS where set."""
-    from PIL import Image
-
-    value = os.environ.get("CSW_MAX_PIXELS")
-    if value:
-        try:
-            Image.MAX_IMAGE_PIXELS = int(value) // 2  # Pillow refuses at twice this
-        except ValueError:
-            raise ImageError(f"CSW_MAX_PIXELS must be a whole number, got {value!r}") from None
-
-
-def _too_large(exc):
-    """The message for an image over Pillow's decompression-bomb limit, else None.
-    imageio wraps Pillow's error, so the chain is searched."""
-    from PIL import Image
-
-    while exc is not None:
-        if isinstance(exc, Image.DecompressionBombError):
-            return (f"the image is larger than the decoder's safety limit of "
-                    f"{Image.MAX_IMAGE_PIXELS * 2} pixels ({exc}); set "
-                    "CSW_MAX_PIXELS to a larger number to allow it")
-        exc = exc.__cause__ or exc.__context__
-    return None
-
-
+        return image.reshape(height, width, planes)
+    except Exception as exc:  # pypng, zlib and numpy errors for damaged data
+        raise ImageError(f"{path}: not a readable image ({_reason(exc)})") from None

@@ -23,21 +23,32 @@ from pathlib import Path
 
 import numpy as np
 
+from . import safety
 from .formats import FORMATS
-from .images import ImageError, read_image, to_gray
+from .images import ImageError, check_pixels, read_image, to_gray
 
 
-def open_source(image, name="image", probe=True):
+def open_source(image, name="image", probe=True, striped=False):
     """A row source for a path or an array; ImageError, one line, when unusable.  The
-    file is checked now (header, pixel type, and with ``probe`` one row decoded) so that
-    a bad input fails before any work."""
+    file is checked now (header, the pixel limit, pixel type, and with ``probe`` one row
+    decoded) so that a bad input fails before any work.  striped: the caller matches in
+    stripes under a memory limit the user gave (see csw.io.images.check_pixels)."""
     if isinstance(image, (str, Path)):
         path = Path(image)
-        if not path.exists():
-            raise ImageError(f"{path}: no such file")
+        safety.protect(path)
+        try:
+            os.stat(path)
+        except FileNotFoundError:
+            raise ImageError(f"{path}: no such file") from None
+        except OSError as exc:  # a name too long, a loop of links ...
+            raise ImageError(f"{path}: can't read it ({exc.strerror or exc})") from None
         kind = getattr(FORMATS.get(path.suffix.lower()), "image", None)
         source = {"tiff": TiffSource, "npy": NpySource, "zarr": ZarrSource}.get(
             kind, WholeSource)(path)
+        if min(source.shape) < 1:
+            raise ImageError(f"{path}: the image is empty ({source.shape[1]}x"
+                             f"{source.shape[0]})")
+        check_pixels(source.shape, path, striped)
     else:
         source = ArraySource(image, name)
     if probe:
@@ -64,17 +75,20 @@ class _Source:
         self.__init__(state["path"])
 
     def rows(self, r0, r1):
+        return _gray(self.raw_rows(r0, r1), str(self.path))
+
+    def raw_rows(self, r0, r1):
+        """Rows r0..r1-1 as stored: (n, W) or (n, W, C)."""
         if not 0 <= r0 <= r1 <= self.shape[0]:
             raise IndexError(f"rows {r0}..{r1} outside 0..{self.shape[0]}")
         try:
-            block = self._read(r0, r1)
+            return np.asarray(self._read(r0, r1))
         except ImageError:
             raise
         except Exception as exc:  # decoders raise many types for damaged data
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             raise ImageError(f"{self.path}: can't read rows {r0}..{r1} ({reason[:160]})") \
                 from None
-        return _gray(np.asarray(block), str(self.path))
 
     @functools.cached_property
     def dtype(self):
@@ -200,15 +214,11 @@ def _decoded(path):
 
 
 def _header_shape(path):
-    """(H, W) from the file's header, without decoding the pixels."""
-    from PIL import Image
+    """(H, W) from the file's header, without decoding the pixels (ImageError saying why
+    it can't be read)."""
+    from .images import _header, _png16_header
 
-    try:
-        with Image.open(path) as image:
-            width, height = image.size
-    except Exception:
-        return read_image(path).shape  # read_image says why it can't be read
-    return height, width
+    return _png16_header(path) or _header(path)[2]
 
 
 class ArraySource(_Source):

@@ -18,8 +18,9 @@ from pathlib import Path
 import numpy as np
 
 from ..executor import progress_bar, run_tasks
-from ..io.atomic import TMP_PREFIX, atomic_write_all
+from ..io.atomic import atomic_write_all, make_temporary_dir, temporary_prefix
 from ..io.formats import check_range, format_of, preview_stripes, stripe_writer
+from ..io.safety import check_target
 from ..io.sources import open_source
 from ..params import resolve
 from ..pipeline import is_row_local, match_rows
@@ -100,6 +101,14 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
     """
     opts = resolve(**options)
     output = Path(output)
+    check_target(output, "output", folder_ok=output.suffix.lower() == ".zarr")
+    if confidence is not None:
+        check_target(confidence, "confidence",
+                     folder_ok=Path(confidence).suffix.lower() == ".zarr")
+    # A link is followed: the store and the temporaries go beside what it points to.
+    output = Path(os.path.realpath(output)) if output.is_symlink() else output
+    if confidence is not None and Path(confidence).is_symlink():
+        confidence = Path(os.path.realpath(confidence))
     format_of(output, "stripes")
     check_range(output, opts["dmax"], opts["dmin"])
     if confidence is not None:
@@ -107,7 +116,9 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
     if client is not None and not all(isinstance(p, (str, Path)) for p in (left, right)):
         raise ValueError("on a cluster, give left and right as paths the workers can read")
     limit = parse_size(memory_limit) if memory_limit is not None else None
-    left, right = open_source(left, "left"), open_source(right, "right")
+    striped = memory_limit is not None or stripe_rows is not None  # the user's word
+    left, right = (open_source(image, side, striped=striped)
+                   for image, side in ((left, "left"), (right, "right")))
     height, width = left.shape
     layout = []  # the plan, once made: tau auto samples each row from its own band
 
@@ -156,8 +167,7 @@ def _run_passes(left, right, output, confidence, preview, layout, args, st, clie
     """Both passes into temporary stores beside the output, then the outputs; the
     temporary stores are removed whatever happens."""
     folder = output.parent if str(output.parent) else Path(".")
-    work = Path(tempfile.mkdtemp(prefix=f"{TMP_PREFIX}{output.name}.", suffix=".tmp",
-                                 dir=folder))
+    work = make_temporary_dir(folder, output.name)
     try:
         shape = (layout.height, layout.width)
         rows = layout.stripe_rows
@@ -213,16 +223,17 @@ def _run_passes(left, right, output, confidence, preview, layout, args, st, clie
 
 
 def _replace_dir(tmp, path):
-    """Put folder ``tmp`` at ``path``, replacing an earlier zarr store there."""
+    """Put folder ``tmp`` at ``path`` (its links resolved by the caller), replacing an
+    earlier zarr store there; the old store goes through a temporary name, which the
+    next run removes if this one is killed in between."""
     path = Path(path)
     old = None
     if path.exists():
-        if not (path / "zarr.json").exists():
+        if not (path / "zarr.json").is_file():
             raise ValueError(f"{path} exists and is not a zarr store; csw won't replace it")
-        old = path.with_name(f"{TMP_PREFIX}{path.name}.old")
-        shutil.rmtree(old, ignore_errors=True)
-        os.replace(path, old)
+        old = Path(tempfile.mkdtemp(prefix=temporary_prefix(path.name), suffix=".tmp",
+                                    dir=path.parent))
+        os.replace(path, old / "store")
     os.replace(tmp, path)
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
-

@@ -33,12 +33,14 @@ def depth(ctx, disparity, output, preview, **_):
       csw depth disp.pfm --calib calib_cam_to_cam.txt -o depth.tif --preview depth.png
       csw depth disp.pfm --focal 721.5 --baseline 0.537 -o depth.npy
     """
-    from csw.files import check_outputs
-    from csw.geometry import depth_file
+    from csw.geometry import DEPTH_SUFFIXES, depth_file
+    from csw.io.safety import check_outputs
 
     calibration = require(opt.calibration(ctx.params))
     with opt.library_errors():
-        check_outputs({"disparity": disparity}, {"depth": output, "depth_preview": preview})
+        check_outputs({"disparity": disparity, "calib": ctx.params["calib"]},
+                      {"output": output, "preview": preview},
+                      {"output": DEPTH_SUFFIXES, "preview": (".png",)})
     with opt.library_errors("DISPARITY"):
         z = depth_file(disparity, output, calibration, ctx.params["units"], preview)
     units = ctx.params["units"] or calibration.units or "the baseline's units"
@@ -64,12 +66,13 @@ def cloud(ctx, disparity, output, image, max_depth, **_):
       csw cloud disp.pfm --calib calib.txt --image im0.png -o cloud.ply --units m
       csw cloud disp.pfm --calib stereo.yml --max-depth 20 -o cloud.ply
     """
-    from csw.files import check_outputs
-    from csw.geometry import cloud_file
+    from csw.geometry import CLOUD_SUFFIXES, cloud_file
+    from csw.io.safety import check_outputs
 
     calibration = require(opt.calibration(ctx.params))
     with opt.library_errors():
-        check_outputs({"disparity": disparity, "image": image}, {"cloud": output})
+        check_outputs({"disparity": disparity, "image": image, "calib": ctx.params["calib"]},
+                      {"output": output}, {"output": CLOUD_SUFFIXES})
     with opt.library_errors("DISPARITY"):
         count = cloud_file(disparity, output, calibration, image, max_depth,
                            ctx.params["units"])

@@ -55,7 +55,7 @@ def hist(ctx, images, dataset, plot, fmt, data_dir, download, verify, **_):
                               "threads", "preset", *params.OFF])
     with opt.library_errors():
         params.resolve(**options)  # a bad option fails before any file is read
-        check_outputs({}, {"plot": plot})
+        check_outputs(dict(zip(("left", "right"), images, strict=False)), {"plot": plot})
     if dataset:
         pair = next(opt.pairs([dataset], [], data_dir, download, verify))
         left, right, top, title = pair.left, pair.right, pair.dmax, dataset

@@ -1,5 +1,6 @@
 """``csw match``: one rectified pair in, one disparity map out; or many pairs into a folder."""
 
+import os
 from pathlib import Path
 
 import click
@@ -158,7 +159,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     three_d = dict(depth=depth, cloud=cloud, depth_preview=depth_preview,
                    max_depth=max_depth, units=units)
     many = manifest is not None or output_dir is not None or \
-        (left is not None and Path(left).is_dir())
+        (left is not None and os.path.isdir(left))
     if many:
         if output or preview or cost_map or confidence or memory_limit:
             raise click.UsageError("-o, --preview, --cost-map, --confidence and "
@@ -166,7 +167,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
                                    "--output-dir")
         if bool(manifest) == (left is not None):
             raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")
-        if left is not None and (right is None or not Path(right).is_dir()):
+        if left is not None and (right is None or not os.path.isdir(right)):
             raise click.UsageError("with a LEFT folder, RIGHT must be a folder too")
         return match_batch(left, right, manifest, output_dir, suffix, overwrite, summary,
                            settings, workers, scheduler, calibration, three_d)
@@ -199,10 +200,13 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
     out = Path(output_dir)
     with opt.library_errors("--manifest" if manifest else "LEFT"):
         jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left, right)
-    with opt.library_errors(), cluster(workers, scheduler) as client:
-        report = match_many(jobs, out, suffix=suffix, overwrite=overwrite, progress=True,
-                            summary=summary, client=client, calib=calibration,
-                            **(three_d or {}), **settings)
+    try:
+        with opt.library_errors(), cluster(workers, scheduler) as client:
+            report = match_many(jobs, out, suffix=suffix, overwrite=overwrite, progress=True,
+                                summary=summary, client=client, calib=calibration,
+                                **(three_d or {}), **settings)
+    except OSError as exc:
+        raise write_error(exc) from None
     counts = report["counts"]
     summary_path = summary or out / "summary.json"
     click.echo(f"{counts['ok']} matched, {counts['skipped']} skipped (output exists; "

@@ -1,6 +1,7 @@
 """csw.match_many: many pairs, progress, a summary, and bad pairs reported, not fatal."""
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -55,10 +56,14 @@ def test_rerun_skips_finished_outputs_unless_overwrite(folders):
 def test_a_killed_writer_s_temporary_file_goes_when_the_batch_ends(folders):
     """A worker killed mid-write leaves p1.pfm's temporary file, too fresh for the
     day-old rule; once every task has finished, the batch removes it."""
+    from csw.io.atomic import HOST
+
     root, _ = folders
-    left_behind = root / "out" / ".csw-tmp.p1.pfm.abc123.tmp"
+    (root / "out").mkdir(exist_ok=True)
+    alive = os.getppid()  # a worker that is still running, as far as the sweep can tell
+    left_behind = root / "out" / f".csw-tmp.p1.pfm.{HOST}-{alive}-abc123.tmp"
     left_behind.write_bytes(b"half a map")
-    unrelated = root / "out" / ".csw-tmp.other.pfm.abc123.tmp"
+    unrelated = root / "out" / f".csw-tmp.other.pfm.{HOST}-{alive}-abc123.tmp"
     unrelated.write_bytes(b"someone else's")
     jobs = csw.jobs_from_folders(root / "left", root / "right")
     assert csw.match_many(jobs, root / "out", dmax=12, progress=False)["counts"]["ok"] == 3
