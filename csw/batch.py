@@ -3,11 +3,16 @@ out.  A pair that fails is reported in the summary and the others go on.
 """
 
 import csv
+import itertools
 import json
 import os
+import tempfile
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from . import calib as calib_module
 from .executor import progress_bar, run_tasks
@@ -261,8 +266,9 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     suffix : {".pfm", ".png", ".npy"}
     overwrite : bool
         Redo pairs whose output exists (default: skip them, so a rerun resumes).
-    progress : bool
-        A progress bar on stderr.
+    progress : bool or callable
+        A progress bar on stderr; or ``progress(done, total)``, called as each pair
+        finishes (no bar).
     summary : path, optional
         Where to write the JSON summary (default ``out_dir/summary.json``).
     client : dask.distributed.Client, optional
@@ -285,7 +291,9 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     -------
     dict
         The summary: ``counts`` (ok, skipped, failed), ``pairs`` (one entry each, in the
-        jobs' order, with ``status`` and, for failures, ``error``) and ``options``.
+        jobs' order, with ``status`` and, for failures, ``error``; read from the summary
+        file as they are asked for, so that a long batch keeps none in memory),
+        ``failed`` (the failed pairs' entries) and ``options``.
     """
     if suffix not in suffixes("whole"):
         raise ValueError(f"suffix must be one of {', '.join(suffixes('whole'))}, got "
@@ -322,43 +330,108 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     except OSError as exc:
         raise OptionError("output_dir", f"can't create the folder {out_dir} "
                                         f"({exc.strerror or exc})") from None
-    entries = {}
+    log = PairLog(summary.parent, len(jobs))
     todo = []
     for i, (job, paths) in enumerate(zip(jobs, outputs, strict=True)):
         if paths["map"].exists() and not overwrite:
-            entries[i] = {"name": job.name, "left": str(job.left), "right": str(job.right),
-                          "output": str(paths["map"]), "status": "skipped"}
+            log.add(i, {"name": job.name, "left": str(job.left), "right": str(job.right),
+                        "output": str(paths["map"]), "status": "skipped"})
         else:
-            todo.append((i, job, paths))
-    bar = progress_bar(len(jobs), "csw match", "pair", progress, initial=len(entries))
+            todo.append(i)
+    bar = progress_bar(len(jobs), "csw match", "pair", progress is True,
+                       initial=len(jobs) - len(todo))
     try:
-        tasks = [(job, paths) for _, job, paths in todo]
+        tasks = ((jobs[i], outputs[i]) for i in todo)
         three_d = dict(max_depth=max_depth, units=units)
         for k, entry in run_tasks(run_job, tasks, client, calib=calib, three_d=three_d,
                                   **match_options):
-            entries[todo[k][0]] = entry
+            log.add(todo[k], entry)
             bar.update()
+            if callable(progress):
+                progress(log.done, len(jobs))
+        # Every task has finished: a temporary file still beside an output was left by a
+        # worker killed mid-write (its task was rerun elsewhere), so it can go.
+        remove_temporaries(path for i in todo for path in outputs[i].values())
+        return write_summary(summary, log, resolved)
     except KeyboardInterrupt:
         # What finished is complete on disk: say so, marked as interrupted, and stop.
-        write_summary(summary, [entries[i] for i in sorted(entries)], resolved,
-                      interrupted=True)
+        write_summary(summary, log, resolved, interrupted=True)
         raise
     finally:
         bar.close()
-    # Every task has finished: a temporary file still beside an output was left by a
-    # worker killed mid-write (its task was rerun elsewhere), so it can go.
-    for _, _, paths in todo:
-        for path in paths.values():
-            remove_temporaries(path)
-    return write_summary(summary, [entries[i] for i in sorted(entries)], resolved)
+        log.close()
 
 
-def write_summary(path, entries, resolved, interrupted=False):
-    """Write the JSON summary atomically and return it."""
-    counts = {status: sum(e["status"] == status for e in entries)
-              for status in ("ok", "skipped", "failed")}
-    report = {"counts": counts, "options": resolved, "pairs": entries,
-              "interrupted": interrupted}
-    text = json.dumps(report, indent=2, sort_keys=True, default=str)
-    atomic_write(path, lambda tmp: Path(tmp).write_text(text + "\n"))
-    return report
+class PairLog:
+    """A batch's summary entries as they come, kept on disk (a temporary file beside the
+    summary) with only their offsets, counts and failures in memory: a million-pair
+    batch's summary takes a few bytes a pair in this process, not its entries."""
+
+    def __init__(self, folder, total):
+        self.handle = tempfile.TemporaryFile(dir=folder if folder.is_dir() else None)
+        self.offsets = np.full(total, -1, np.int64)
+        self.counts = {"ok": 0, "skipped": 0, "failed": 0}
+        self.failed = []
+
+    @property
+    def done(self):
+        return sum(self.counts.values())
+
+    def add(self, index, entry):
+        self.offsets[index] = self.handle.seek(0, os.SEEK_END)
+        self.handle.write(json.dumps(entry, sort_keys=True, default=str).encode() + b"\n")
+        self.counts[entry["status"]] += 1
+        if entry["status"] == "failed":
+            self.failed.append(entry)
+
+    def lines(self):
+        """Each entry's JSON line, in the jobs' order."""
+        for offset in self.offsets:
+            if offset >= 0:
+                self.handle.seek(offset)
+                yield self.handle.readline().rstrip(b"\n")
+
+    def close(self):
+        self.handle.close()
+
+
+class SummaryPairs(Sequence):
+    """The entries of a summary file, in the jobs' order, read from the file when asked
+    for (a batch's report holds no list of them)."""
+
+    def __init__(self, path, count):
+        self.path, self.count = Path(path), count
+
+    def __len__(self):
+        return self.count
+
+    def __iter__(self):
+        with open(self.path, "rb") as handle:
+            inside = False
+            for line in handle:
+                if inside and line.startswith(b"{"):
+                    yield json.loads(line.rstrip(b",\n"))
+                inside = inside or line.rstrip().endswith(b'"pairs": [')
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return list(self)[index]
+        index = range(self.count)[index]
+        return next(itertools.islice(iter(self), index, None))
+
+
+def write_summary(path, log, resolved, interrupted=False):
+    """Write the JSON summary atomically, one pair a line in the jobs' order, and return
+    the report: counts, options, interrupted, failed (the failed pairs' entries) and
+    pairs (every entry, read from the summary when asked for)."""
+    head = {"counts": log.counts, "interrupted": interrupted, "options": resolved}
+
+    def write(tmp):
+        with open(tmp, "wb") as out:
+            text = json.dumps(head, indent=2, sort_keys=True, default=str)
+            out.write(text[:-2].encode() + b',\n  "pairs": [\n')
+            for i, line in enumerate(log.lines()):
+                out.write((b",\n" if i else b"") + line)
+            out.write(b"\n  ]\n}\n")
+    atomic_write(path, write)
+    return dict(head, failed=list(log.failed), pairs=SummaryPairs(path, log.done))

@@ -159,7 +159,9 @@ def read_calibration(path):
             raise OptionError("calib", f"{path}: {size} bytes is too large for a "
                                        f"calibration (at most {MAX_FILE_BYTES})")
         if path.suffix.lower() == ".npy":
-            return from_q(np.load(path, allow_pickle=False), str(path))
+            from .io.formats import load_npy
+
+            return from_q(load_npy(path), str(path))
         text = path.read_text(errors="replace")
     except FileNotFoundError:
         raise OptionError("calib", f"{path}: no such file") from None

@@ -27,6 +27,21 @@ def local_client(workers):
     if not 1 <= workers <= 256:
         raise ValueError(f"workers must be from 1 to 256, got {workers}")
     threads = max(1, (os.cpu_count() or 1) // workers)
+    import dask
+
+    # The scheduler runs in this process and keeps logs of the last tasks, events and
+    # system samples (up to 100,000 tasks, 10,000 events, an hour of samples): a long
+    # batch's memory would grow with them.  A thousand of each show the recent past.
+    with dask.config.set({key: LOG_LENGTH for key in LOGS}):
+        return _local_client(distributed, workers, threads)
+
+
+LOG_LENGTH = 1000
+LOGS = ("distributed.scheduler.dashboard.tasks.task-stream-length",
+        "distributed.admin.log-length", "distributed.admin.system-monitor.log-length")
+
+
+def _local_client(distributed, workers, threads):
     cluster = distributed.LocalCluster(
         n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
         dashboard_address="127.0.0.1:0", env={"NUMBA_NUM_THREADS": str(threads)},

@@ -5,6 +5,7 @@ import importlib
 import os
 import signal
 import sys
+import threading
 
 import click
 
@@ -77,6 +78,11 @@ class Stopped(KeyboardInterrupt):
 
 
 def _stop(signum, frame):
+    if frame is not None and "llvmlite" in frame.f_code.co_filename:
+        # Inside a callback from compiled code (llvmlite's object cache), an exception
+        # is printed and dropped: deliver the signal again a moment later, outside it.
+        threading.Timer(0.05, os.kill, (os.getpid(), signum)).start()
+        return
     raise Stopped(signum)
 
 

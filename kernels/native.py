@@ -33,7 +33,10 @@ from pathlib import Path
 import numpy as np
 
 JIT_DISABLED = os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
-JIT_SOURCES = Path(__file__).with_name("jit")
+# Every source the compiled code can depend on: the workers and what they import (the
+# Numba option sets, the contract's constants), so any change gives a new cache folder.
+KERNEL_SOURCES = Path(__file__).parent
+COMPILED_SOURCES = ("jit/*.py", "config.py", "contract.py")
 
 # Seconds Numba takes to compile each kernel's entry on the machines csw was measured on
 # (2-core AMD EPYC); the notice before a compile sums them for what is missing.
@@ -304,8 +307,10 @@ def _fingerprint():
         import llvmlite.binding as llvm
 
         digest = hashlib.sha256()
-        for path in sorted(JIT_SOURCES.glob("*.py")):
-            digest.update(path.name.encode() + path.read_bytes())
+        for path in sorted(p for pattern in COMPILED_SOURCES
+                           for p in KERNEL_SOURCES.glob(pattern)):
+            name = path.relative_to(KERNEL_SOURCES).as_posix()
+            digest.update(name.encode() + b"\0" + path.read_bytes())
         for part in (sys.version, llvmlite.__version__, llvm.get_host_cpu_name(),
                      llvm.get_host_cpu_features().flatten(),
                      os.environ.get("NUMBA_CPU_NAME", ""),

@@ -108,19 +108,24 @@ def sweep(folder):
         pass
 
 
-def remove_temporaries(path):
-    """Remove every temporary of target ``path``, whatever its writer: for a caller that
-    knows no writer of it is still running (a batch whose tasks have all finished, after
-    a killed worker left one behind).  The name is compared, never globbed."""
-    path = Path(path)
-    try:
-        with os.scandir(path.parent if str(path.parent) else ".") as entries:
-            for entry in entries:
-                found = _TEMPORARY.match(entry.name)
-                if found and found["name"] == _short(path.name):
-                    _remove(entry)
-    except OSError:
-        pass
+def remove_temporaries(paths):
+    """Remove every temporary of the target ``paths`` (one path, or many), whatever their
+    writers: for a caller that knows no writer of them is still running (a batch whose
+    tasks have all finished, after a killed worker left one behind).  Names are
+    compared, never globbed, and each folder is listed once."""
+    folders = {}
+    for path in [paths] if isinstance(paths, (str, os.PathLike)) else paths:
+        path = Path(path)
+        folders.setdefault(path.parent, set()).add(_short(path.name))
+    for folder, names in folders.items():
+        try:
+            with os.scandir(folder if str(folder) else ".") as entries:
+                for entry in entries:
+                    found = _TEMPORARY.match(entry.name)
+                    if found and found["name"] in names:
+                        _remove(entry)
+        except OSError:
+            pass
 
 
 def atomic_write(path, write_to):

@@ -158,6 +158,38 @@ def _npy_writer(values):
 # ---------------------------------------------------------------------------- readers
 
 
+def npy_header(handle, path):
+    """(shape, dtype, data offset) of the .npy file open in ``handle``, checked: C order,
+    a plain dtype, and as many bytes of data as the shape needs, so that a hostile
+    header never makes csw allocate what it declares.  ImageError otherwise."""
+    try:
+        version = np.lib.format.read_magic(handle)
+        read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                else np.lib.format.read_array_header_2_0)
+        shape, fortran, dtype = read(handle)
+        offset = handle.tell()
+        size = os.fstat(handle.fileno()).st_size
+    except Exception as exc:  # numpy parses the header as Python literals: any error
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ImageError(f"{path}: not a readable .npy array ({reason[:120]})") from None
+    if fortran or dtype.hasobject or dtype.names or dtype.subdtype:
+        raise ImageError(f"{path}: expected a plain array in C order, got {dtype} "
+                         f"{'(Fortran order)' if fortran else ''}".rstrip())
+    needed = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if size - offset < needed:
+        raise ImageError(f"{path}: the .npy file is truncated (its header says {shape}, "
+                         f"{needed} bytes; it holds {size - offset})")
+    return shape, dtype, offset
+
+
+def load_npy(path):
+    """A .npy file's array, its header checked first (see npy_header)."""
+    with open(path, "rb") as handle:
+        shape, dtype, offset = npy_header(handle, path)
+        count = int(np.prod(shape, dtype=object))
+        return np.fromfile(handle, dtype, count).reshape(shape)
+
+
 def _read_float_map(path, scale):
     """PFM or NPY: as stored, non-finite unknown."""
     if path.suffix.lower() == ".pfm":
@@ -165,9 +197,12 @@ def _read_float_map(path, scale):
         disp = np.where(np.isfinite(disp), disp, np.nan).astype(np.float32)
     else:
         try:
-            disp = np.load(path, allow_pickle=False).astype(np.float32)
-        except Exception as exc:
-            raise ImageError(f"{path}: not a readable .npy array ({exc})") from None
+            disp = load_npy(path)
+        except OSError as exc:
+            raise ImageError(f"{path}: can't read it ({exc.strerror or exc})") from None
+        if disp.dtype.kind not in "biuf":
+            raise ImageError(f"{path}: expected a map of numbers, got {disp.dtype}")
+        disp = disp.astype(np.float32)
         if disp.ndim != 2:
             raise ImageError(f"{path}: expected a 2-D array, got shape {disp.shape}")
         disp[~np.isfinite(disp)] = np.nan

@@ -121,6 +121,8 @@ def check_space(needs):
     by_disk = {}
     for path, size in needs:
         folder = Path(path).resolve().parent
+        while not folder.is_dir() and folder != folder.parent:  # a folder to be made
+            folder = folder.parent
         try:
             disk = os.stat(folder).st_dev
         except OSError:

@@ -132,25 +132,18 @@ class NpySource(_Source):
     page it touched in the process's memory."""
 
     def __init__(self, path):
+        from .formats import npy_header
+
         self.path = Path(path)
         try:
             with open(self.path, "rb") as f:
-                version = np.lib.format.read_magic(f)
-                read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                               else np.lib.format.read_array_header_2_0)
-                shape, fortran, dtype = read_header(f)
-                self._offset = f.tell()
-                size = os.fstat(f.fileno()).st_size
-        except (ValueError, OSError, EOFError) as exc:
-            raise ImageError(f"{self.path}: not a readable .npy array ({str(exc)[:120]})") \
-                from None
-        if len(shape) not in (2, 3) or fortran or dtype.hasobject:
-            raise ImageError(f"{self.path}: expected a 2-D image in C order, got shape "
-                             f"{shape}{' (Fortran order)' if fortran else ''}")
+                shape, dtype, self._offset = npy_header(f, self.path)
+        except OSError as exc:
+            raise ImageError(f"{self.path}: can't read it ({exc.strerror or exc})") from None
+        if len(shape) not in (2, 3):
+            raise ImageError(f"{self.path}: expected a 2-D image, got shape {shape}")
         self._dtype, self._shape = dtype, shape
         self._row_bytes = int(np.prod(shape[1:])) * dtype.itemsize
-        if size - self._offset < shape[0] * self._row_bytes:
-            raise ImageError(f"{self.path}: the .npy file is truncated")
         self.shape = tuple(int(n) for n in shape[:2])
         self.colour = len(shape) == 3
 

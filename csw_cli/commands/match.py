@@ -212,8 +212,7 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
     click.echo(f"{counts['ok']} matched, {counts['skipped']} skipped (output exists; "
                f"--overwrite redoes them), {counts['failed']} failed; summary in "
                f"{summary_path}", err=True)
-    for entry in report["pairs"]:
-        if entry["status"] == "failed":
-            click.echo(f"failed: {entry['name']}: {entry['error']}", err=True)
+    for entry in report["failed"]:
+        click.echo(f"failed: {entry['name']}: {entry['error']}", err=True)
     if counts["failed"]:
         raise SystemExit(1)

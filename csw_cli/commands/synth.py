@@ -48,6 +48,12 @@ def synth(directory, size, dmax, seed, tiff):
     if not tiff and width * height > PNG_MAX_PIXELS:
         raise click.BadParameter("over 50 megapixels needs --tiff (rendered by row bands)",
                                  param_hint="--size")
+    from csw.io.safety import check_space
+
+    from .. import options as opt
+
+    with opt.library_errors():  # left, right (1 byte a pixel), gt (4), the mask (1)
+        check_space([(f"{directory}/left.tif", 7 * width * height)])
     try:
         if tiff:
             write_tiff_scene(directory, width, height, dmax, seed)

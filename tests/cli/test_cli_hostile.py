@@ -367,7 +367,7 @@ def test_kitti_size_that_overflows_is_one_line(tmp_path):
 
 
 @pytest.mark.parametrize("content, words", [
-    (np.zeros((4, 4), [("a", "f8")]), "real numbers"),
+    (np.zeros((4, 4), [("a", "f8")]), "plain array"),
     (np.eye(4) * (1 + 1j), "real numbers"),
     (b"", "not a readable .npy"),
 ])

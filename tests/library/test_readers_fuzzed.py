@@ -1,0 +1,110 @@
+"""Every reader, fed random bytes and valid headers with hostile contents (huge declared
+sizes, odd bit depths, channel counts and colour spaces): a clean error (a ValueError,
+csw.ImageError among them) or a correct read, never another exception, and never an
+allocation the header alone asked for."""
+
+import struct
+import zlib
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import csw
+from csw.batch import jobs_from_manifest
+from csw.io.sources import open_source
+
+READERS = {
+    "read_image": csw.read_image,
+    "read_colour": lambda p: __import__("csw.io.images", fromlist=["x"]).read_colour(p),
+    "read_disparity": csw.read_disparity,
+    "read_calibration": csw.read_calibration,
+    "open_source": lambda p: open_source(p).rows(0, 1),
+    "manifest": jobs_from_manifest,
+}
+SUFFIXES = [".png", ".tif", ".npy", ".pfm", ".jpg", ".bmp", ".ppm", ".txt", ".yml"]
+
+
+def read_cleanly(reader, path):
+    """The reader's result, or None for a clean error; anything else fails the test."""
+    try:
+        return READERS[reader](path)
+    except ValueError:
+        return None
+
+
+def png(width, height, depth, colour, payload=b"", interlace=0):
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    ihdr = struct.pack(">IIBBBBB", width, height, depth, colour, 0, 0, interlace)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(payload))
+            + chunk(b"IEND", b""))
+
+
+def tiff(width, height, samples, bits, extra=b""):
+    """A little-endian baseline TIFF header whose one strip holds ``extra``."""
+    entries = [(256, 4, 1, width), (257, 4, 1, height), (258, 3, 1, bits),
+               (259, 3, 1, 1), (262, 3, 1, 2 if samples >= 3 else 1),
+               (273, 4, 1, 8 + 2 + 12 * 9 + 4), (277, 3, 1, samples), (278, 4, 1, height),
+               (279, 4, 1, len(extra))]
+    body = struct.pack("<H", len(entries))
+    for tag, kind, count, value in entries:
+        packed = struct.pack("<I", value) if kind == 4 else struct.pack("<HH", value, 0)
+        body += struct.pack("<HHI", tag, kind, count) + packed
+    return b"II*\x00" + struct.pack("<I", 8) + body + b"\x00\x00\x00\x00" + extra
+
+
+def npy(shape, dtype, data=b""):
+    header = repr({"descr": dtype, "fortran_order": False, "shape": shape}).encode()
+    header += b" " * (63 - (len(header) + 10) % 64) + b"\n"
+    return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(header)) + header + data
+
+
+sizes = st.sampled_from([0, 1, 3, 2**16, 60000, 2**31 - 1])
+hostile = st.one_of(
+    st.builds(png, sizes, sizes, st.sampled_from([1, 2, 4, 8, 16, 3, 32]),
+              st.sampled_from([0, 2, 3, 4, 6, 5]), st.binary(max_size=64),
+              st.sampled_from([0, 1])),
+    st.builds(tiff, sizes, sizes, st.sampled_from([1, 2, 3, 4, 5]),
+              st.sampled_from([1, 8, 12, 16, 32]), st.binary(max_size=64)),
+    st.builds(npy, st.tuples(sizes, sizes) | st.tuples(sizes, sizes, sizes),
+              st.sampled_from(["|u1", "<u2", ">u2", "<f4", "<c8", "|b1", "<i8"]),
+              st.binary(max_size=64)),
+    st.builds(lambda w, h, s: f"Pf\n{w} {h}\n{s}\n".encode(), sizes, sizes,
+              st.sampled_from(["-1", "1", "0", "nan", "1e400"])),
+    st.binary(max_size=256),
+)
+
+
+@settings(max_examples=150, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=hostile, suffix=st.sampled_from(SUFFIXES), reader=st.sampled_from(list(READERS)))
+def test_every_reader_ends_cleanly_on_hostile_files(tmp_path_factory, data, suffix, reader):
+    path = tmp_path_factory.mktemp("hostile") / f"f{suffix}"
+    path.write_bytes(data)
+    result = read_cleanly(reader, path)
+    if isinstance(result, np.ndarray):  # a read must be a real image or map
+        assert result.ndim in (2, 3) and result.size <= 64 * 1024 * 8
+
+
+@pytest.mark.parametrize("depth, colour, channels", [(8, 0, 1), (16, 0, 1), (8, 2, 3),
+                                                     (16, 2, 3), (8, 4, 2), (16, 4, 2),
+                                                     (8, 6, 4), (16, 6, 4)])
+def test_valid_pngs_of_every_depth_and_colour_read_correctly(tmp_path, depth, colour, channels):
+    """The control: a well-formed small PNG of each kind reads as its pixels (gray, or
+    the luma of the colour), with its bit depth kept."""
+    import png as pypng
+
+    rng = np.random.default_rng(depth + colour)
+    top = 2**depth - 1
+    pixels = rng.integers(0, top + 1, (5, 7, channels)).astype(
+        np.uint8 if depth == 8 else np.uint16)  # pypng writes 8 bits only from bytes
+    with open(tmp_path / "p.png", "wb") as f:
+        pypng.Writer(7, 5, greyscale=colour in (0, 4), alpha=colour in (4, 6),
+                     bitdepth=depth).write(f, pixels.reshape(5, 7 * channels))
+    gray = csw.read_image(tmp_path / "p.png")
+    assert gray.dtype == (np.uint8 if depth == 8 else np.uint16)
+    expected = pixels[..., 0] if channels <= 2 else csw.io.luma(pixels[..., :3])
+    np.testing.assert_array_equal(gray, expected.astype(gray.dtype))
