@@ -9,7 +9,8 @@ same options and defaults (one table: :data:`csw.params.OPTIONS`).
 >>> csw.score(result.disparity, scene.gt, scene.masks)["all"]["bad"][1.0] < 10
 True
 
-Layout: ``params`` (the options), ``whole`` (csw.match), ``tiled`` (row stripes),
+Layout: ``params`` (the options), ``whole`` (csw.Matcher, csw.match), ``tiled`` (row
+stripes),
 ``files`` (csw.match_files, which chooses between them), ``batch`` and ``executor``
 (many pairs), ``prepare`` and ``pipeline`` (the stages around ``kernels``), ``io``
 (images, formats, atomic writes), ``data`` (datasets, benchmark layouts, the synthetic
@@ -26,6 +27,7 @@ _PUBLIC = {
     "DataError": ("data.datasets", "DataError"),
     "ImageError": ("io.images", "ImageError"),
     "Job": ("batch", "Job"),
+    "Matcher": ("whole", "Matcher"),
     "OptionError": ("params", "OptionError"),
     "Pair": ("data.datasets", "Pair"),
     "Result": ("whole", "Result"),

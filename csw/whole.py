@@ -115,6 +115,9 @@ def match(left, right, want_confidence=False, **options):
 
     Every option's default, allowed values and help are in :data:`csw.params.OPTIONS`.
 
+    ``csw.match(left, right, **options)`` is ``csw.Matcher(**options).match(left,
+    right)``: for many pairs with the same options, make the Matcher once.
+
     Returns
     -------
     Result
@@ -126,7 +129,50 @@ def match(left, right, want_confidence=False, **options):
     TypeError
         On an unknown option name.
     """
-    opts = resolve(**options)
+    return Matcher(pixels=None, **options).match(left, right, want_confidence)
+
+
+class Matcher:
+    """A matcher made once and called per pair, as OpenCV's ``StereoBM_create(...)`` and
+    ``compute(l, r)``: the options are resolved and checked at construction, and the
+    kernels they need loaded (compiled once, if need be), so that a bad option or a
+    missing kernel fails now, not at the thousandth pair.
+
+    >>> matcher = csw.Matcher(dmax=64)                      # the same options as csw.match
+    >>> result = matcher.match(left, right)                 # a csw.Result, as csw.match's
+
+    pixels: the images' type whose kernels are loaded now (np.uint8 by default; a pair of
+    another type loads its own on first use; None: none now).  A range "auto" is found
+    from the first pair and kept for the next ones (``settings["range_source"]`` says
+    so).  One Matcher may be used from several threads at once: each thread matches
+    with scratch of its own (kernels/workspace.py), and the matcher keeps nothing of a
+    pair but that first range.
+    """
+
+    def __init__(self, pixels=np.uint8, **options):
+        self.options = resolve(**options)  # TypeError / ValueError now
+        self._found_range = None
+        if pixels is not None and "auto" not in (self.options["dmin"], self.options["dmax"]):
+            from . import params
+            from .prepare import load_kernels
+
+            load_kernels(self.options, params.stages(self.options), np.dtype(pixels))
+
+    def match(self, left, right, want_confidence=False):
+        """Match a rectified pair (paths or arrays, as for :func:`csw.match`); returns a
+        :class:`Result`."""
+        opts = self.options
+        if self._found_range is not None:
+            opts = dict(opts, dmin=self._found_range[0], dmax=self._found_range[1],
+                        range_source="auto (from the first pair)")
+        result = _match(opts, left, right, want_confidence)
+        if self._found_range is None and "auto" in (opts["dmin"], opts["dmax"]):
+            self._found_range = (result.settings["dmin"], result.settings["dmax"])
+        return result
+
+
+def _match(opts, left, right, want_confidence):
+    """One pair with resolved options ``opts``."""
     left, right = as_gray(left, "left"), as_gray(right, "right")
 
     def sample_min_cost(args, stages, rows):
