@@ -129,10 +129,11 @@ def main():
         + ("under 10% in every process (flat)." if flat else
            "10% or more in some process: see the table."), "",
         f"## A long batch: {args.long_pairs} tiny pairs on 2 local workers", "",
-        f"{args.long_pairs} pairs of 64x48, d 0..8, one manifest, `csw.match_many` on a "
-        "2-worker LocalCluster.  The batch keeps a bounded number of tasks in flight "
-        "(4 per worker thread) and its summary entries on disk, so the main process "
-        "holds a few bytes a pair.", "",
+        f"{args.long_pairs} pairs of 64x48, d 0..8, one manifest, `csw.match_many` on "
+        "csw's local cluster of 2 workers (`csw match --workers 2`: the scheduler and "
+        "the workers in processes of their own).  The batch keeps a bounded number of "
+        "tasks in flight (4 per worker thread) and its summary entries on disk, so the "
+        "main process holds a few bytes a pair.", "",
         "| pairs/s | main RSS MB at pair 2000 | at the last | growth |",
         "|---|---|---|---|",
         f"| {rate:.1f} | {at_2000:.1f} | {at_end:.1f} | {at_end - at_2000:+.1f} MB |"])

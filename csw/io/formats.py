@@ -229,6 +229,9 @@ def read_disparity(path, scale=None):
     """
     path = Path(path)
     safety.protect(path)
+    kind = safety.kind_of(path)
+    if kind not in (None, "file", "folder"):  # a pipe or a device would never end
+        raise ImageError(f"{path} is a {kind}, not a disparity map file")
     return format_of(path, "read").read(path, scale)
 
 

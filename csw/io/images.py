@@ -116,6 +116,9 @@ def _decode(path):
     TIFFs with tifffile (as the striped path reads them, so both see the same pixels),
     CMYK (JPEG) converted to RGB, everything else by Pillow through imageio (palettes
     expanded, the first frame of multi-frame files)."""
+    kind = safety.kind_of(path)
+    if kind not in (None, "file", "folder"):  # a pipe or a device would never end
+        raise ImageError(f"{path} is a {kind}, not an image file")
     png16 = _png16_header(path)
     if png16 is not None:
         check_pixels(png16, path)

@@ -511,3 +511,11 @@ def test_a_full_standard_output_is_one_line():
                          "datasets > /dev/full", shell=True, capture_output=True, text=True)
     assert out.returncode == 1 and out.stderr.strip().splitlines() == [
         "Error: can't write standard output: No space left on device"]
+
+
+@pytest.mark.parametrize("name", ["l.png", "d.pfm"])
+def test_a_pipe_as_an_input_is_refused_at_once(tmp_path, pair_files, name):
+    os.mkfifo(tmp_path / name)  # no writer: reading it would wait for ever
+    result = invoke("match", tmp_path / name, pair_files[1], "-o", tmp_path / "o.pfm") \
+        if name.endswith(".png") else invoke("score", tmp_path / name, "--gt", pair_files[0])
+    assert one_line(result) and "is a pipe" in result.output

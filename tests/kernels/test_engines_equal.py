@@ -60,7 +60,7 @@ def test_engines_equal_on_synthetic_16_bit_with_dmin():
     ("shd", np.uint16, 9, np.uint16),
 ])
 def test_accumulator_width(cost, dtype, window, expected):
-    from kernels.contract import COSTS
+    from csw.kernels.contract import COSTS
     from kernels.fast import accumulator_dtype
 
     assert accumulator_dtype(np.dtype(dtype), COSTS[cost], window) == expected
