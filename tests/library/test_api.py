@@ -103,3 +103,13 @@ def test_loading_the_kernels_loads_what_the_match_runs(cost, dtype, options):
     csw.match(left, np.roll(left, 2, 1), **{"preset": "raw", **options, "cost": cost,
                                              "window": 9, "dmax": 8})
     assert native._LOADED == loaded
+
+
+def test_luma_of_8_bit_colour_is_the_integer_formula():
+    """8-bit colour goes through Pillow: its result is the formula, for every value."""
+    rgb = np.random.default_rng(7).integers(0, 256, (64, 300, 3)).astype(np.uint8)
+    rgb[0, :256] = np.arange(256)[:, None]  # every value in every channel
+    r, g, b = (rgb[..., i].astype(np.int64) for i in range(3))
+    np.testing.assert_array_equal(luma(rgb), (r * 19595 + g * 38470 + b * 7471 + 0x8000) >> 16)
+    np.testing.assert_array_equal(luma(rgb[:, ::2]),  # a strided view too
+                                  ((r * 19595 + g * 38470 + b * 7471 + 0x8000) >> 16)[:, ::2])
