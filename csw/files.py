@@ -26,7 +26,7 @@ from .io.images import ImageError, read_colour, read_image
 from .io.sources import open_source
 from .params import OptionError, resolve
 from .tiled import match_tiled, too_big_for_whole
-from .whole import match
+from .whole import Matcher
 
 # What each companion output may be, by role (csw.io.formats.suffixes).
 COMPANIONS = {"preview": (".png",), "cost_map": (".pfm",), "plot": (".png",),
@@ -86,6 +86,7 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     csw.ImageError
         An input that can't be read (its ``option`` names it: "left" or "right").
     """
+    opts = resolve(**options)  # first, and once: a bad option fails before any file is read
     calibration = calib_module.resolve(calib, left)
     try:
         shape = open_source(left, "left", probe=False, striped=memory_limit is not None).shape
@@ -95,8 +96,9 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     width = shape[1]
     if calibration is not None:
         calibration.check_size(shape)
-    options, range_note = calib_module.with_range(calibration, options, width)
-    opts = resolve(**options)
+    ranged, range_note = calib_module.with_range(calibration, options, width)
+    if ranged is not options:  # the calibration's ndisp
+        opts = dict(opts, dmax=ranged["dmax"])
     outputs = {"output": output, "confidence": confidence, "preview": preview,
                "cost_map": cost_map, "depth": depth, "cloud": cloud,
                "depth_preview": depth_preview}
@@ -124,10 +126,10 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
                                         "limit, a cluster, .tif/.zarr)")
         result = match_tiled(left, right, output, confidence=confidence, preview=preview,
                              memory_limit=memory_limit, client=client, progress=progress,
-                             **options)
+                             config=opts)
         return _noted(result, range_note, calibration)
     images = [_read(path, name) for name, path in (("left", left), ("right", right))]
-    result = match(*images, want_confidence=confidence is not None, **options)
+    result = Matcher(pixels=None, config=opts).match(*images, confidence is not None)
     # One pair: its outputs are written next, and scratch kept for a next match would
     # only raise this process's peak memory (a batch keeps it: csw.batch).
     kernels.workspace.for_this_thread().release()

@@ -149,8 +149,12 @@ class Matcher:
     pair but that first range.
     """
 
-    def __init__(self, pixels=np.uint8, **options):
-        self.options = resolve(**options)  # TypeError / ValueError now
+    def __init__(self, pixels=np.uint8, config=None, **options):
+        if config is not None and options:
+            raise TypeError("give a Matcher its options or a resolved config, not both")
+        # TypeError / ValueError now.  config: an option set csw.params.resolve made
+        # already (csw's own callers, which resolve before they read any file).
+        self.options = resolve(**options) if config is None else config
         self._found_range = None
         if pixels is not None and "auto" not in (self.options["dmin"], self.options["dmax"]):
             from . import params

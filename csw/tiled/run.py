@@ -66,7 +66,7 @@ class TiledResult:
 
 
 def match_tiled(left, right, output, *, confidence=None, preview=None, memory_limit=None,
-                stripe_rows=None, client=None, progress=False, **options):
+                stripe_rows=None, client=None, progress=False, config=None, **options):
     """Match a pair stripe by stripe and write the map to ``output``; the result equals
     :func:`csw.match`'s bit for bit, for every preset and stage.
 
@@ -93,13 +93,16 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
     progress : bool
         A progress bar over the stripes, on stderr.
     **options
-        Matching options, as for :func:`csw.match`.
+        Matching options, as for :func:`csw.match`; or ``config``, an option set that
+        csw.params.resolve made already.
 
     Returns
     -------
     TiledResult
     """
-    opts = resolve(**options)
+    if config is not None and options:
+        raise TypeError("give match_tiled its options or a resolved config, not both")
+    opts = resolve(**options) if config is None else config
     output = Path(output)
     check_target(output, "output", folder_ok=output.suffix.lower() == ".zarr")
     if confidence is not None:

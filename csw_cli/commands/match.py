@@ -153,9 +153,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     from csw import params
 
     settings = opt.given(ctx, MATCH_OPTIONS)
-    with opt.library_errors():
-        params.resolve(**settings)  # a bad option fails before any file is read
-    calibration = opt.calibration(ctx.params)
+    calibration = None
     three_d = dict(depth=depth, cloud=cloud, depth_preview=depth_preview,
                    max_depth=max_depth, units=units)
     many = manifest is not None or output_dir is not None or \
@@ -169,12 +167,21 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
             raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")
         if left is not None and (right is None or not os.path.isdir(right)):
             raise click.UsageError("with a LEFT folder, RIGHT must be a folder too")
+        with opt.library_errors():
+            params.resolve(**settings)  # a bad option fails before the manifest is read
+        calibration = opt.calibration(ctx.params)
         return match_batch(left, right, manifest, output_dir, suffix, overwrite, summary,
                            settings, workers, scheduler, calibration, three_d)
     if left is None or right is None:
         raise click.UsageError("give LEFT and RIGHT images (or folders with --output-dir)")
     if output is None:
         raise click.UsageError("give -o/--output FILE for the disparity map")
+    # The library resolves the options first, once, before it reads any file: a
+    # calibration file too, which it is given by name.
+    by_hand = any(ctx.params[k] is not None for k in ("focal", "baseline", "cx", "cy",
+                                                       "doffs"))
+    calibration = ctx.params["calib"] if ctx.params["calib"] and not by_hand else \
+        opt.calibration(ctx.params)
     from csw import match_files
     from csw.distributed import cluster
 
