@@ -220,12 +220,38 @@ def _read_image_map(path, scale):
     return disp
 
 
+def _read_array_map(path, scale):
+    """A TIFF or a zarr store: a float map (csw's: NaN invalid) as stored, non-finite
+    unknown; an integer one as an image map (value / scale, 0 unknown)."""
+    from .sources import open_source
+
+    if path.suffix.lower() == ".zarr":
+        import zarr
+
+        try:
+            values = np.asarray(zarr.open_array(path, mode="r"))
+        except Exception as exc:  # zarr raises several types for a folder it can't read
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise ImageError(f"{path}: not a readable zarr array ({reason[:120]})") from None
+    else:
+        source = open_source(path, probe=False)
+        values = source.raw_rows(0, source.shape[0])
+    if values.dtype.kind != "f":
+        return _read_image_map(path, scale)
+    if values.ndim != 2:
+        raise ImageError(f"{path}: expected a 2-D map, got shape {values.shape}")
+    disp = values.astype(np.float32)
+    disp[~np.isfinite(disp)] = np.nan
+    return disp / scale if scale else disp
+
+
 def read_disparity(path, scale=None):
     """Read a disparity map (or ground truth) as float32 (H, W), NaN unknown.
 
-    PFM and NPY as stored (non-finite unknown); images (PNG, PGM ...):
-    value / scale, 0 unknown, the scale 256 for 16-bit (KITTI) and 1 for 8-bit images
-    unless given (Middlebury ground truth: see the dataset's scale).
+    PFM and NPY, and float TIFF and zarr maps (as csw writes them), as stored
+    (non-finite unknown); images (PNG, PGM, integer TIFF ...): value / scale, 0 unknown,
+    the scale 256 for 16-bit (KITTI) and 1 for 8-bit images unless given (Middlebury
+    ground truth: see the dataset's scale).
     """
     path = Path(path)
     safety.protect(path)
@@ -349,11 +375,11 @@ FORMATS = {
                    whole=lambda disp: png_writer(kitti_png_values(disp)),
                    stripes=_png_stripes, floats=False, largest=PNG_MAX_DISPARITY,
                    invalid="0"),
-    ".tif": Format(image="tiff", read=_read_image_map, stripes=_tiff_stripes,
+    ".tif": Format(image="tiff", read=_read_array_map, stripes=_tiff_stripes,
                    invalid="NaN"),
-    ".tiff": Format(image="tiff", read=_read_image_map, stripes=_tiff_stripes,
+    ".tiff": Format(image="tiff", read=_read_array_map, stripes=_tiff_stripes,
                     invalid="NaN"),
-    ".zarr": Format(image="zarr", stripes="store", invalid="NaN"),
+    ".zarr": Format(image="zarr", read=_read_array_map, stripes="store", invalid="NaN"),
     ".ppm": Format(image="pillow", read=_read_image_map),
     ".pgm": Format(image="pillow", read=_read_image_map),
     ".pnm": Format(image="pillow", read=_read_image_map),

@@ -13,7 +13,7 @@ def from_disparity(output_help):
         function = opt.calibration_options()(function)
         function = click.option("--output", "-o", required=True,
                                 type=click.Path(dir_okay=False), help=output_help)(function)
-        return click.argument("disparity", type=click.Path(dir_okay=False))(function)
+        return click.argument("disparity", type=click.Path())(function)  # a .zarr: a folder
     return decorate
 
 

@@ -1,5 +1,6 @@
 """``csw score``: Middlebury-style error metrics of a disparity map, or of a folder of maps."""
 
+import os
 from pathlib import Path
 
 import click
@@ -79,7 +80,7 @@ def score(disp, gt, gt_scale, masks, border, dataset, dataset_dir, scene, fmt, d
                                "scale and masks")
     if scene and not dataset_dir:
         raise click.UsageError("--scene goes with --dataset-dir")
-    if Path(disp).is_dir():
+    if os.path.isdir(disp) and Path(disp).suffix.lower() != ".zarr":  # a store is one map
         if not dataset_dir:
             raise click.UsageError("a folder of maps is scored against --dataset-dir")
         return score_folder(Path(disp), dataset_dir, border, fmt)
