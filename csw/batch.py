@@ -16,15 +16,13 @@ import numpy as np
 
 from . import calib as calib_module
 from .executor import progress_bar, run_tasks
-from .files import COMPANIONS
+from .files import COMPANIONS, match_files
 from .geometry import check_max_depth
-from .geometry import writers as three_d_writers
 from .io import safety
-from .io.atomic import atomic_write, atomic_write_all, remove_temporaries
-from .io.formats import check_range, disparity_writer, suffixes
-from .io.images import ImageError, read_colour, read_image
+from .io.atomic import atomic_write, remove_temporaries
+from .io.formats import check_range, suffixes
+from .io.images import ImageError
 from .params import OptionError, resolve
-from .whole import match
 
 # A name's outputs add a suffix (".depth.tiff") to it, and a file name holds 255 bytes.
 MAX_NAME_BYTES = 200
@@ -198,10 +196,12 @@ def check_outputs(jobs, outputs, out_dir, summary, calib=None):
 
 def run_job(task, calib=None, three_d=None, **match_options):
     """Match one pair, a (Job, outputs) task (outputs: role -> path, "map" first), and
-    write its map and the 3-D outputs asked for, all or none; returns a summary entry
-    (never raises for a bad pair: the error is in the entry).  calib: the batch's
-    Calibration, else the pair's calib.txt (beside its left image) is used; its ndisp
-    sets the range when the options give no dmax.  three_d: max_depth and units."""
+    write its map and the 3-D outputs asked for, all or none, through the one path from
+    a pair to files (csw.match_files: a pair too big for memory is matched in stripes);
+    returns a summary entry (never raises for a bad pair: the error is in the entry).
+    calib: the batch's Calibration, else the pair's calib.txt (beside its left image) is
+    used; its ndisp sets the range when the options give no dmax.  three_d: max_depth
+    and units."""
     job, outputs = task
     entry = {"name": job.name, "left": str(job.left),
              "right": str(job.right) if job.right else None,
@@ -210,30 +210,18 @@ def run_job(task, calib=None, three_d=None, **match_options):
     try:
         if job.problem:
             raise ValueError(job.problem)
-        left, right = read_image(job.left), read_image(job.right)
         calibration = calib_module.resolve(calib, job.left)
-        match_options, range_source = calib_module.with_range(calibration, match_options,
-                                                               left.shape[1])
-        wanted = [role for role in ("depth", "cloud", "depth_preview") if role in outputs]
-        if wanted and calibration is None:
-            raise ValueError(f"no calibration for the {wanted[0].replace('_', ' ')}: give "
-                             f"one, or put a calib.txt beside {job.left}")
-        result = match(left, right, **match_options)
-        items = [(outputs["map"], disparity_writer(outputs["map"], result.disparity))]
-        if wanted:
-            colours = read_colour(job.left) if "cloud" in wanted else None
-            items += three_d_writers(result.disparity, calibration, outputs.get("depth"),
-                                     outputs.get("cloud"), outputs.get("depth_preview"),
-                                     colours, **(three_d or {}))
-        atomic_write_all(items)
+        result = match_files(job.left, job.right, outputs["map"], calib=calibration,
+                             depth=outputs.get("depth"), cloud=outputs.get("cloud"),
+                             depth_preview=outputs.get("depth_preview"), keep_scratch=True,
+                             **(three_d or {}), **match_options)
     except Exception as exc:  # noqa: BLE001 (any error of one pair is that pair's, reported)
         return dict(entry, status="failed", error=failure_message(exc))
     s = result.settings
     return dict(entry, status="ok", seconds=time.perf_counter() - start,
                 match_seconds=result.seconds, invalid=100.0 * result.invalid_share,
                 work_saved=100.0 * result.work_saved, range=[s["dmin"], s["dmax"]],
-                range_source=s["range_source"] if s["range_source"] == "auto"
-                else range_source,  # "auto" also when only dmin was auto
+                range_source=s["range_source"], stripes=result.stripes,
                 calibration=calibration.as_dict() if calibration else None,
                 **{role: str(path) for role, path in outputs.items() if role != "map"})
 

@@ -42,7 +42,8 @@ BYTES_PER_PIXEL = {"output": 4, "confidence": 4, "preview": 3, "cost_map": 4, "d
 
 def match_files(left, right, output, *, confidence=None, preview=None, cost_map=None,
                 calib=None, depth=None, cloud=None, depth_preview=None, max_depth=None,
-                units=None, memory_limit=None, client=None, progress=False, **options):
+                units=None, memory_limit=None, client=None, progress=False,
+                keep_scratch=False, **options):
     """Match the pair in files ``left`` and ``right`` and write the map to ``output``.
 
     Parameters
@@ -71,6 +72,9 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
         Match in row stripes, as tasks on this cluster.
     progress : bool
         A progress bar over the stripes, on stderr.
+    keep_scratch : bool
+        Keep this thread's scratch for a next match (a batch), rather than give it back
+        before the outputs are written (one pair: a lower peak).
     **options
         Matching options, as for :func:`csw.match`.
 
@@ -132,7 +136,8 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     result = Matcher(pixels=None, config=opts).match(*images, confidence is not None)
     # One pair: its outputs are written next, and scratch kept for a next match would
     # only raise this process's peak memory (a batch keeps it: csw.batch).
-    kernels.workspace.for_this_thread().release()
+    if not keep_scratch:
+        kernels.workspace.for_this_thread().release()
     disp = result.disparity
     writers = [(output, disparity_writer(output, disp))]
     if preview is not None:

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from hostile_files import png, tiff
 from layout_fixtures import middlebury2014
 
 import csw
@@ -196,15 +197,15 @@ def test_a_batch_survives_any_error_of_one_pair(tmp_path, monkeypatch):
     left = csw.synthetic_pair(64, 48, dmax=8, seed=2)[0]
     for job in jobs:
         write_png(job.left, left)
-    real = batch.match
+    real = batch.match_files
 
-    def sometimes(left, right, **options):
-        if options.pop("boom", False) and left.sum() >= 0:
+    def sometimes(left, right, output, boom, **options):
+        if boom:
             raise OverflowError("cannot convert float infinity to integer")
-        return real(left, right, **options)
+        return real(left, right, output, **options)
     calls = iter([True, False])
-    monkeypatch.setattr(batch, "match", lambda a, b, **o: sometimes(a, b, boom=next(calls),
-                                                                    **o))
+    monkeypatch.setattr(batch, "match_files",
+                        lambda a, b, o, **k: sometimes(a, b, o, next(calls), **k))
     report = csw.match_many(jobs, tmp_path / "out", dmax=8, progress=False)
     assert report["counts"] == {"ok": 1, "skipped": 0, "failed": 1}
     assert "OverflowError" in report["pairs"][0]["error"]
@@ -277,27 +278,12 @@ def test_sigterm_and_sighup_behave_like_ctrl_c(tmp_path, signum):
 # ---------------------------------------------------------------- sizes and limits
 
 
-def png_header_only(width, height, bit_depth, colour):
-    import struct
-    import zlib
-
-    def chunk(kind, data):
-        return (struct.pack(">I", len(data)) + kind + data
-                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
-    ihdr = struct.pack(">IIBBBBB", width, height, bit_depth, colour, 0, 0, 0)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b""))
-            + chunk(b"IEND", b""))
-
-
 def test_the_pixel_limit_holds_for_16_bit_pngs_and_tiffs(tmp_path, pair_files):
-    import tifffile
-
-    (tmp_path / "bomb.png").write_bytes(png_header_only(20000, 20000, 16, 2))
+    (tmp_path / "bomb.png").write_bytes(png(20000, 20000, 16, 2))
     result = invoke("match", tmp_path / "bomb.png", pair_files[1], "-o", tmp_path / "d.pfm")
     assert one_line(result) and "CSW_MAX_PIXELS" in result.output
     assert "--memory-limit" in result.output
-    with tifffile.TiffWriter(tmp_path / "bomb.tif", bigtiff=True) as tif:
-        tif.write(shape=(60000, 60000), dtype=np.uint8, tile=(256, 256))
+    (tmp_path / "bomb.tif").write_bytes(tiff(60000, 60000, 1, 8, b"\0" * 64))
     result = invoke("match", tmp_path / "bomb.tif", tmp_path / "bomb.tif", "-o",
                     tmp_path / "d.tif")
     assert one_line(result) and "CSW_MAX_PIXELS" in result.output

@@ -3,11 +3,9 @@ sizes, odd bit depths, channel counts and colour spaces): a clean error (a Value
 csw.ImageError among them) or a correct read, never another exception, and never an
 allocation the header alone asked for."""
 
-import struct
-import zlib
-
 import numpy as np
 import pytest
+from hostile_files import npy, png, tiff
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -32,34 +30,6 @@ def read_cleanly(reader, path):
         return READERS[reader](path)
     except ValueError:
         return None
-
-
-def png(width, height, depth, colour, payload=b"", interlace=0):
-    def chunk(kind, data):
-        return (struct.pack(">I", len(data)) + kind + data
-                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
-    ihdr = struct.pack(">IIBBBBB", width, height, depth, colour, 0, 0, interlace)
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(payload))
-            + chunk(b"IEND", b""))
-
-
-def tiff(width, height, samples, bits, extra=b""):
-    """A little-endian baseline TIFF header whose one strip holds ``extra``."""
-    entries = [(256, 4, 1, width), (257, 4, 1, height), (258, 3, 1, bits),
-               (259, 3, 1, 1), (262, 3, 1, 2 if samples >= 3 else 1),
-               (273, 4, 1, 8 + 2 + 12 * 9 + 4), (277, 3, 1, samples), (278, 4, 1, height),
-               (279, 4, 1, len(extra))]
-    body = struct.pack("<H", len(entries))
-    for tag, kind, count, value in entries:
-        packed = struct.pack("<I", value) if kind == 4 else struct.pack("<HH", value, 0)
-        body += struct.pack("<HHI", tag, kind, count) + packed
-    return b"II*\x00" + struct.pack("<I", 8) + body + b"\x00\x00\x00\x00" + extra
-
-
-def npy(shape, dtype, data=b""):
-    header = repr({"descr": dtype, "fortran_order": False, "shape": shape}).encode()
-    header += b" " * (63 - (len(header) + 10) % 64) + b"\n"
-    return b"\x93NUMPY\x01\x00" + struct.pack("<H", len(header)) + header + data
 
 
 sizes = st.sampled_from([0, 1, 3, 2**16, 60000, 2**31 - 1])
