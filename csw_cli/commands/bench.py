@@ -38,13 +38,15 @@ def literal_tau(ctx, param, value):
 @click.command()
 @opt.dataset_option(required=False)
 @opt.dataset_dir_option
-@opt.option("cost", multiple=True)
-@opt.option("engine", multiple=True)
+@opt.option("cost", multiple=True, preset=params.EXPERIMENT_PRESET)
+@opt.option("engine", multiple=True,
+            help=params.ENGINE_HELP + " [default: window,fast; with --preset paper: window]")
 @click.option("--tau", default=None, callback=literal_tau,
               help="tau of the literal rule's rows: N, 'auto' (histogram rule on the plain "
                    "min-cost map), 'none' or 'paper' [default: paper with --preset paper, "
                    "else auto].")
-@opt.option("csw_rule", multiple=True)
+@opt.option("csw_rule", multiple=True,
+            help=params.RULE_HELP + " [default: literal,unique; with --preset paper: literal]")
 @opt.option("tau", flag="--unique-tau", dest="unique_tau",
             help="tau for the unique rule's rows [default: none, no cost threshold].")
 @opt.option("uniqueness")
