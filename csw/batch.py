@@ -93,9 +93,7 @@ def jobs_from_manifest(path):
     naming the line, on a malformed record or a bad name."""
     path = Path(path)
     safety.protect(path)
-    kind = safety.kind_of(path)
-    if kind not in ("file", None):  # a device (/dev/zero) or a pipe would never end
-        raise ValueError(f"{path} is a {kind}, not a manifest file")
+    safety.check_input(path, "a manifest file")
     try:
         with open(path, newline="", encoding="utf-8-sig") as handle:
             reader = csv.reader(handle)
@@ -182,11 +180,10 @@ def check_outputs(jobs, outputs, out_dir, summary, calib=None):
             written[real] = f"the {role.replace('_', ' ')} of {job.name!r}"
             safety.check_target(path)
     real = os.path.realpath(summary)
-    clash = inputs.get(real) or written.get(real.casefold())
-    if clash is not None:
-        raise OptionError("summary", f"the summary {summary} is {clash}"
-                          if real.casefold() in written else f"the summary {summary} is an input "
-                                                  f"({clash})")
+    if real.casefold() in written:
+        raise OptionError("summary", f"the summary {summary} is {written[real.casefold()]}")
+    if real in inputs:
+        raise OptionError("summary", f"the summary {summary} is an input ({inputs[real]})")
     safety.check_target(summary, "summary")
     folder = Path(summary).parent
     if folder != Path(out_dir) and not folder.is_dir():

@@ -22,7 +22,7 @@ import numpy as np
 
 from . import safety
 from .atomic import atomic_write
-from .images import ImageError, read_image
+from .images import ImageError, error_reason, read_image
 
 PNG_MAX_DISPARITY = 65535 / 256  # KITTI: uint16 value = d * 256
 TIFF_TILE = 256
@@ -170,8 +170,7 @@ def npy_header(handle, path):
         offset = handle.tell()
         size = os.fstat(handle.fileno()).st_size
     except Exception as exc:  # numpy parses the header as Python literals: any error
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ImageError(f"{path}: not a readable .npy array ({reason[:120]})") from None
+        raise ImageError(f"{path}: not a readable .npy array ({error_reason(exc)})") from None
     if fortran or dtype.hasobject or dtype.names or dtype.subdtype:
         raise ImageError(f"{path}: expected a plain array in C order, got {dtype} "
                          f"{'(Fortran order)' if fortran else ''}".rstrip())
@@ -231,8 +230,7 @@ def _read_array_map(path, scale):
         try:
             values = np.asarray(zarr.open_array(path, mode="r"))
         except Exception as exc:  # zarr raises several types for a folder it can't read
-            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise ImageError(f"{path}: not a readable zarr array ({reason[:120]})") from None
+            raise ImageError(f"{path}: not a readable zarr array ({error_reason(exc)})") from None
     else:
         source = open_source(path, probe=False)
         values = source.raw_rows(0, source.shape[0])
@@ -255,9 +253,7 @@ def read_disparity(path, scale=None):
     """
     path = Path(path)
     safety.protect(path)
-    kind = safety.kind_of(path)
-    if kind not in (None, "file", "folder"):  # a pipe or a device would never end
-        raise ImageError(f"{path} is a {kind}, not a disparity map file")
+    safety.check_input(path, "a disparity map file", ImageError)
     return format_of(path, "read").read(path, scale)
 
 

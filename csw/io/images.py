@@ -123,9 +123,7 @@ def _decode(path):
     TIFFs with tifffile (as the striped path reads them, so both see the same pixels),
     CMYK (JPEG) converted to RGB, everything else by Pillow through imageio (palettes
     expanded, the first frame of multi-frame files)."""
-    kind = safety.kind_of(path)
-    if kind not in (None, "file", "folder"):  # a pipe or a device would never end
-        raise ImageError(f"{path} is a {kind}, not an image file")
+    safety.check_input(path, "an image file", ImageError)
     png16 = _png16_header(path)
     if png16 is not None:
         check_pixels(png16, path)
@@ -147,10 +145,11 @@ def _decode(path):
 
         return iio.imread(path, plugin="pillow", index=0)
     except Exception as exc:  # decoders raise many types for damaged data
-        raise ImageError(f"{path}: not a readable image ({_reason(exc)})") from None
+        raise ImageError(f"{path}: not a readable image ({error_reason(exc)})") from None
 
 
-def _reason(exc):
+def error_reason(exc):
+    """An error's first line (or its type's name) for a one-line message."""
     return (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)[:120]
 
 
@@ -176,9 +175,9 @@ def _header(path):
     except OSError as exc:
         if exc.errno is not None and exc.strerror:  # a system error, not the data's
             raise ImageError(f"{path}: can't read it ({exc.strerror})") from None
-        raise ImageError(f"{path}: not a readable image ({_reason(exc)})") from None
+        raise ImageError(f"{path}: not a readable image ({error_reason(exc)})") from None
     except Exception as exc:
-        raise ImageError(f"{path}: not a readable image ({_reason(exc)})") from None
+        raise ImageError(f"{path}: not a readable image ({error_reason(exc)})") from None
 
 
 def _png16_header(path):
@@ -207,4 +206,4 @@ def _read_png16(path):
         image = np.vstack([np.asarray(row, np.uint16) for row in rows])
         return image.reshape(height, width, planes)
     except Exception as exc:  # pypng, zlib and numpy errors for damaged data
-        raise ImageError(f"{path}: not a readable image ({_reason(exc)})") from None
+        raise ImageError(f"{path}: not a readable image ({error_reason(exc)})") from None

@@ -62,6 +62,14 @@ def kind_of(path):
     return "pipe" if stat.S_ISFIFO(mode) else "socket"
 
 
+def check_input(path, what, error=ValueError):
+    """``error`` ("... is a pipe, not WHAT") when ``path`` is a pipe, a device or a
+    socket: reading one would wait for ever, or never end (/dev/zero)."""
+    kind = kind_of(path)
+    if kind not in (None, "file", "folder"):
+        raise error(f"{path} is a {kind}, not {what}")
+
+
 def check_target(path, option=None, folder_ok=False):
     """ValueError (an OptionError naming ``option``) unless ``path`` may be written: not
     an input of a guarding run, and a regular file or nothing yet (a folder only with

@@ -36,9 +36,7 @@ def open_source(image, name="image", probe=True, striped=False):
     if isinstance(image, (str, Path)):
         path = Path(image)
         safety.protect(path)
-        kind = safety.kind_of(path)
-        if kind not in (None, "file", "folder"):  # a pipe or a device would never end
-            raise ImageError(f"{path} is a {kind}, not an image file")
+        safety.check_input(path, "an image file", ImageError)
         try:
             os.stat(path)
         except FileNotFoundError:
