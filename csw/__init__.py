@@ -1,7 +1,7 @@
 """csw: fast stereo matching with the Constrained Sliding Window (CSW) algorithm.
 
 The library under the ``csw`` command: each command calls these functions, with the
-same options and defaults (one table: :data:`csw.params.OPTIONS`).
+same options and defaults (one table: :data:`csw.config.params.OPTIONS`).
 
 >>> import csw
 >>> scene = csw.load_dataset("synthetic")
@@ -9,42 +9,48 @@ same options and defaults (one table: :data:`csw.params.OPTIONS`).
 >>> csw.score(result.disparity, scene.gt, scene.masks)["all"]["bad"][1.0] < 10
 True
 
-Layout: ``params`` (the options), ``whole`` (csw.Matcher, csw.match), ``tiled`` (row
-stripes),
-``files`` (csw.match_files, which chooses between them), ``batch`` and ``executor``
-(many pairs), ``prepare`` and ``pipeline`` (the stages around ``kernels``), ``io``
-(images, formats, atomic writes), ``data`` (datasets, benchmark layouts, the synthetic
-scene), ``eval`` (scoring, bench, sweep, histograms, plots).
+Layout, one folder a concept:
+  config/    the option table and presets (params), tau, the paper's settings
+  matching/  csw.Matcher and csw.match (matcher), what runs before the first row (setup),
+             the stages around the kernels (pipeline), the range found from the pair
+             (autorange), a pair of files in and its outputs out (files)
+  scale/     many pairs (batch, executor, distributed) and pairs in row stripes (tiled)
+  camera/    calibrations (calibration), depth and point clouds (geometry)
+  io/        images, map formats, atomic writes, output safety
+  data/      datasets, benchmark layouts, the synthetic scene
+  eval/      scoring, bench, sweep, histograms, plots
+  kernels/   the compiled kernels (installed from the source tree's top-level kernels/)
 
 Names are imported on first use, so ``import csw`` costs only what a call needs.
 """
 
 import importlib
+from typing import TYPE_CHECKING
 
 # Public name -> (module, attribute in it).
 _PUBLIC = {
-    "Calibration": ("calib", "Calibration"),
+    "Calibration": ("camera.calibration", "Calibration"),
     "DataError": ("data.datasets", "DataError"),
     "ImageError": ("io.images", "ImageError"),
-    "Job": ("batch", "Job"),
-    "Matcher": ("whole", "Matcher"),
-    "OptionError": ("params", "OptionError"),
+    "Job": ("scale.batch", "Job"),
+    "Matcher": ("matching.matcher", "Matcher"),
+    "OptionError": ("config.params", "OptionError"),
     "Pair": ("data.datasets", "Pair"),
-    "Result": ("whole", "Result"),
-    "TiledResult": ("tiled.run", "TiledResult"),
+    "Result": ("matching.matcher", "Result"),
+    "TiledResult": ("scale.tiled.run", "TiledResult"),
     "bench_rows": ("eval.bench", "bench_rows"),
-    "compile_kernels": ("prepare", "compile_kernels"),
+    "compile_kernels": ("matching.setup", "compile_kernels"),
     "dataset_names": ("data.datasets", "names"),
-    "depth": ("geometry", "depth"),
-    "jobs_from_folders": ("batch", "jobs_from_folders"),
-    "jobs_from_manifest": ("batch", "jobs_from_manifest"),
+    "depth": ("camera.geometry", "depth"),
+    "jobs_from_folders": ("scale.batch", "jobs_from_folders"),
+    "jobs_from_manifest": ("scale.batch", "jobs_from_manifest"),
     "load_dataset": ("data.datasets", "load"),
-    "match": ("whole", "match"),
-    "match_files": ("files", "match_files"),
-    "match_many": ("batch", "match_many"),
-    "match_tiled": ("tiled.run", "match_tiled"),
-    "point_cloud": ("geometry", "point_cloud"),
-    "read_calibration": ("calib", "read_calibration"),
+    "match": ("matching.matcher", "match"),
+    "match_files": ("matching.files", "match_files"),
+    "match_many": ("scale.batch", "match_many"),
+    "match_tiled": ("scale.tiled.run", "match_tiled"),
+    "point_cloud": ("camera.geometry", "point_cloud"),
+    "read_calibration": ("camera.calibration", "read_calibration"),
     "read_disparity": ("io.formats", "read_disparity"),
     "read_image": ("io.images", "read_image"),
     "run_bench": ("eval.bench", "run_bench"),
@@ -54,12 +60,29 @@ _PUBLIC = {
     "synthetic_pair": ("data.synth", "render"),
     "total_rows": ("eval.bench", "total_rows"),
     "write_disparity": ("io.formats", "write_disparity"),
-    "write_ply": ("geometry", "write_ply"),
+    "write_ply": ("camera.geometry", "write_ply"),
 }
-_SUBMODULES = {"autorange", "batch", "calib", "data", "distributed", "eval", "executor",
-               "geometry",
-               "files", "io", "kernels", "paper", "params", "pipeline", "prepare", "tau",
-               "tiled", "whole"}
+_SUBMODULES = {"camera", "config", "data", "eval", "io", "kernels", "matching", "scale"}
+
+if TYPE_CHECKING:  # what the table above imports on first use, for readers and tools
+    from .camera.calibration import Calibration, read_calibration
+    from .camera.geometry import depth, point_cloud, write_ply
+    from .config.params import OptionError
+    from .data.datasets import DataError, Pair
+    from .data.datasets import load as load_dataset
+    from .data.datasets import names as dataset_names
+    from .data.layouts import scan as scan_folder
+    from .data.synth import render as synthetic_pair
+    from .eval.bench import bench_rows, run_bench, total_rows
+    from .eval.scoring import score
+    from .eval.sweep import sweep_rows
+    from .io.formats import read_disparity, write_disparity
+    from .io.images import ImageError, read_image
+    from .matching.files import match_files
+    from .matching.matcher import Matcher, Result, match
+    from .matching.setup import compile_kernels
+    from .scale.batch import Job, jobs_from_folders, jobs_from_manifest, match_many
+    from .scale.tiled.run import TiledResult, match_tiled
 
 
 def __getattr__(name):

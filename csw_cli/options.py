@@ -1,6 +1,6 @@
 """Options shared by several commands, defined once (as rasterio's rio/options.py).
 
-Every matching option is built from the library's table (csw.params.OPTIONS): its flag,
+Every matching option is built from the library's table (csw.config.params.OPTIONS): its flag,
 type, allowed values, help and default text come from there, so the CLI repeats none of
 them.  The CLI passes on only the options the user gave (see :func:`given`); the library
 fills in the rest.
@@ -10,8 +10,8 @@ import contextlib
 
 import click
 
-from csw import params
-from csw.params import OPTIONS
+from csw.config import params
+from csw.config.params import OPTIONS
 
 FORMATS = ["table", "github", "latex", "csv", "json"]
 
@@ -68,7 +68,7 @@ def _hint(exc):
 
 class LibraryType(click.ParamType):
     """A value checked by the library's table: the same reading and the same message as
-    csw.params gives a notebook user."""
+    csw.config.params gives a notebook user."""
 
     def __init__(self, option):
         self.option = option
@@ -224,10 +224,10 @@ def pairs(datasets, dataset_dirs, data_dir, download, verify=True):
 
 def calibration_options(beside_left=False):
     """A decorator adding --calib FILE, or --focal/--baseline/--cx/--cy/--doffs, and
-    --units: the pair's calibration (csw.calib.from_options turns them into one).
+    --units: the pair's calibration (csw.camera.calibration.from_options turns them into one).
     beside_left: the command falls back on the calib.txt beside its LEFT image, and its
     help says so."""
-    from csw.calib import UNITS
+    from csw.camera.calibration import UNITS
 
     fallback = " [default: the calib.txt beside LEFT, if any]" if beside_left else ""
     decorators = [
@@ -258,7 +258,7 @@ def calibration_options(beside_left=False):
 
 def calibration(ctx_params):
     """The Calibration (or None) the calibration options name; Click errors for bad ones."""
-    from csw.calib import from_options
+    from csw.camera.calibration import from_options
 
     with library_errors():
         return from_options(*(ctx_params[k] for k in ("calib", "focal", "baseline", "cx",

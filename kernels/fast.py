@@ -75,7 +75,7 @@ def stripe_bounds(height, window, threads, rows):
     into stripes as few and tall as load balance allows: one for one thread; otherwise up
     to 4 per thread, each at least 16 windows tall.  A sample of scattered rows (as for
     tau auto) gets one single-row stripe per row, so its cost follows the sample's size;
-    a band's core rows (csw.tiled) are one run.
+    a band's core rows (csw.scale.tiled) are one run.
     """
     if rows.size == 0:
         return np.zeros((0, 2), np.int64)

@@ -4,7 +4,7 @@ over valid pixels only, and the background fill of the Middlebury and KITTI eval
 kits.
 
 Maps are float32 (H, W) with NaN where invalid.  Each function allocates and runs its
-worker (kernels/jit/filters.py); row-local ones in parallel stripes of rows.  csw.pipeline
+worker (kernels/jit/filters.py); row-local ones in parallel stripes of rows.  csw.matching.pipeline
 validates and calls them.
 """
 

@@ -14,8 +14,8 @@ import psutil
 
 import csw
 from csw.data.synth import render
-from csw.distributed import close, local_client
 from csw.io import write_png
+from csw.scale.distributed import close, local_client
 from report_common import cpu_name, now_utc
 
 SIZE, DMAX, DISTINCT = (320, 240), 32, 20

@@ -28,12 +28,12 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import csw  # noqa: E402
+from csw.config.params import resolve, stages  # noqa: E402
 from csw.data.synth import render, write_tiff_scene  # noqa: E402
-from csw.distributed import close, local_client  # noqa: E402
 from csw.io import write_disparity, write_png  # noqa: E402
-from csw.params import resolve, stages  # noqa: E402
-from csw.pipeline import filter_overlap  # noqa: E402
-from csw.tiled import DEFAULT_MEMORY_LIMIT, match_tiled  # noqa: E402
+from csw.matching.pipeline import filter_overlap  # noqa: E402
+from csw.scale.distributed import close, local_client  # noqa: E402
+from csw.scale.tiled import DEFAULT_MEMORY_LIMIT, match_tiled  # noqa: E402
 from report_common import cpu_name, now_utc  # noqa: E402
 
 HD = (1920, 1080)

@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from csw import __version__, kernels
+from csw.config.tau import paper_tau
 from csw.data import datasets as D
 from csw.eval.bench import run_bench
 from csw.io import read_image
-from csw.tau import paper_tau
 from report_common import command, cpu_name, fmt, now_utc
 
 REPEAT = int(os.environ.get("CSW_BENCH_REPEAT", "5"))

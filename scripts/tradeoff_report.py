@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 
 from csw import kernels
+from csw.config.tau import paper_tau, parse_sweep
 from csw.data import datasets as D
 from csw.eval import plots
 from csw.eval.scoring import bad1_all
 from csw.eval.sweep import DEFAULT_TAUS, sweep_rows
-from csw.tau import paper_tau, parse_sweep
 from report_common import command, fmt, now_utc
 
 TARGETS = {"tsukuba": (40.0, 0.3), "cones": (30.0, 0.5), "teddy": (30.0, 0.5),

@@ -128,7 +128,7 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
     return disp, mins, evaluated
 
 
-# The pipeline's stages, brute force (see csw.pipeline and csw.kernels.filters).
+# The pipeline's stages, brute force (see csw.matching.pipeline and csw.kernels.filters).
 
 def xsobel(image, cap):
     height, width = image.shape

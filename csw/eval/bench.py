@@ -8,11 +8,12 @@ optional callback, so the library prints nothing.
 import statistics
 import time
 
-from .. import kernels, paper, params
+from .. import kernels
+from ..config import paper, params
+from ..config.params import BENCH_REPEAT, BENCH_THREADS, EXPERIMENT_PRESET, OFF, PRESETS
+from ..config.tau import resolve_tau
 from ..data.datasets import NOT_VERIFIED
-from ..params import BENCH_REPEAT, BENCH_THREADS, EXPERIMENT_PRESET, OFF, PRESETS
-from ..pipeline import run as run_pipeline
-from ..tau import resolve_tau
+from ..matching.pipeline import run as run_pipeline
 from .scoring import THRESHOLDS, filled_bad, score
 
 RULE_LABELS = {None: "", "literal": " + CSW", "unique": " + CSW-unique"}
@@ -38,7 +39,7 @@ def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), ta
 
     pair: a :class:`csw.datasets.Pair`.  tau: the literal rule's tau (number, "auto",
     "none", "paper" or None for the rule's default); unique_tau likewise for the unique
-    rule.  stages: the pipeline's stages around every variant (csw.pipeline; off: the
+    rule.  stages: the pipeline's stages around every variant (csw.matching.pipeline; off: the
     paper's raw maps).  Returns a list of dicts, the plain row first.
     """
     settings = dict(engine=engine, window=window, dmin=dmin, dmax=dmax, cost=cost,
@@ -138,10 +139,10 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
     preset: None or "paper" (the paper's method and settings), or one of
     csw.defaults.PRESETS for its stages and cost.  costs, engines, rules: lists, or None
     for the preset's.  stages: pipeline stage options over the preset's (see
-    csw.pipeline).  dmax: None for each pair's own range (or the paper's with the paper
+    csw.matching.pipeline).  dmax: None for each pair's own range (or the paper's with the paper
     preset).  Returns (rows, caption).
     """
-    from ..pipeline import entries
+    from ..matching.pipeline import entries
 
     chosen = PAPER_PRESET if preset == "paper" else PLAIN_PRESET
     named = params.resolve(preset=preset or EXPERIMENT_PRESET, **(stages or {}))

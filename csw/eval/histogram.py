@@ -3,9 +3,9 @@ paper's rule reads off it."""
 
 import numpy as np
 
-from .. import params
-from ..pipeline import run as run_pipeline
-from ..tau import paper_tau, resolve_tau
+from ..config import params
+from ..config.tau import paper_tau, resolve_tau
+from ..matching.pipeline import run as run_pipeline
 
 
 def min_cost_histogram(left, right, bins=10, **options):

@@ -66,7 +66,7 @@ def score(disp, gt, regions, thresholds=THRESHOLDS):
 
 
 def filled_bad(disp, gt, region, threshold=2.0):
-    """bad-t (%) over ``region`` after the evaluation kits' background fill (csw.pipeline's
+    """bad-t (%) over ``region`` after the evaluation kits' background fill (csw.matching.pipeline's
     fill="background"), the same fill for every method: invalid pixels take the smaller
     nearest valid disparity on their row."""
     from ..kernels.filters import fill_background

@@ -1,8 +1,8 @@
 """CSW's trade-off between work saved and accuracy, over tau, rules and uniqueness."""
 
-from ..params import OFF
-from ..pipeline import run as run_pipeline
-from ..tau import paper_tau, sweep_value
+from ..config.params import OFF
+from ..config.tau import paper_tau, sweep_value
+from ..matching.pipeline import run as run_pipeline
 from .bench import RULE_LABELS
 from .scoring import bad1_all, score
 
@@ -13,7 +13,7 @@ def sweep_rows(pair, *, cost, rules, taus, uniquenesses=(None,), window, dmax, t
                progress=None, stages=OFF):
     """Plain matching, then every (rule, uniqueness, tau) with CSW, as dicts.
 
-    taus: (label, kind, number) items from :func:`csw.tau.parse_sweep`.  stages: the
+    taus: (label, kind, number) items from :func:`csw.config.tau.parse_sweep`.  stages: the
     pipeline's stages around every run (off: the raw maps).
     Results are the same with either engine; the sweep uses the fast one.
     """

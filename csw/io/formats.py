@@ -22,7 +22,7 @@ import numpy as np
 
 from . import safety
 from .atomic import atomic_write
-from .images import ImageError, error_reason, read_image
+from .images import ImageError, Tiff, check_pixels, error_reason, npy_header, read_image
 
 PNG_MAX_DISPARITY = 65535 / 256  # KITTI: uint16 value = d * 256
 TIFF_TILE = 256
@@ -158,29 +158,6 @@ def _npy_writer(values):
 # ---------------------------------------------------------------------------- readers
 
 
-def npy_header(handle, path):
-    """(shape, dtype, data offset) of the .npy file open in ``handle``, checked: C order,
-    a plain dtype, and as many bytes of data as the shape needs, so that a hostile
-    header never makes csw allocate what it declares.  ImageError otherwise."""
-    try:
-        version = np.lib.format.read_magic(handle)
-        read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                else np.lib.format.read_array_header_2_0)
-        shape, fortran, dtype = read(handle)
-        offset = handle.tell()
-        size = os.fstat(handle.fileno()).st_size
-    except Exception as exc:  # numpy parses the header as Python literals: any error
-        raise ImageError(f"{path}: not a readable .npy array ({error_reason(exc)})") from None
-    if fortran or dtype.hasobject or dtype.names or dtype.subdtype:
-        raise ImageError(f"{path}: expected a plain array in C order, got {dtype} "
-                         f"{'(Fortran order)' if fortran else ''}".rstrip())
-    needed = int(np.prod(shape, dtype=object)) * dtype.itemsize
-    if size - offset < needed:
-        raise ImageError(f"{path}: the .npy file is truncated (its header says {shape}, "
-                         f"{needed} bytes; it holds {size - offset})")
-    return shape, dtype, offset
-
-
 def load_npy(path):
     """A .npy file's array, its header checked first (see npy_header)."""
     with open(path, "rb") as handle:
@@ -222,8 +199,6 @@ def _read_image_map(path, scale):
 def _read_array_map(path, scale):
     """A TIFF or a zarr store: a float map (csw's: NaN invalid) as stored, non-finite
     unknown; an integer one as an image map (value / scale, 0 unknown)."""
-    from .sources import open_source
-
     if path.suffix.lower() == ".zarr":
         import zarr
 
@@ -232,8 +207,12 @@ def _read_array_map(path, scale):
         except Exception as exc:  # zarr raises several types for a folder it can't read
             raise ImageError(f"{path}: not a readable zarr array ({error_reason(exc)})") from None
     else:
-        source = open_source(path, probe=False)
-        values = source.raw_rows(0, source.shape[0])
+        tiff = Tiff(path)
+        check_pixels(tiff.shape, path)
+        try:
+            values = tiff.rows(0, tiff.shape[0])
+        except Exception as exc:  # decoders raise many types for damaged data
+            raise ImageError(f"{path}: not a readable TIFF ({error_reason(exc)})") from None
     if values.dtype.kind != "f":
         return _read_image_map(path, scale)
     if values.ndim != 2:

@@ -124,17 +124,18 @@ def _decode(path):
     CMYK (JPEG) converted to RGB, everything else by Pillow through imageio (palettes
     expanded, the first frame of multi-frame files)."""
     safety.check_input(path, "an image file", ImageError)
-    png16 = _png16_header(path)
+    png16 = png16_header(path)
     if png16 is not None:
         check_pixels(png16, path)
         return _read_png16(path)
-    mode, kind, shape = _header(path)
+    mode, kind, shape = image_header(path)
     check_pixels(shape, path)
     if kind == "TIFF":
-        from .sources import TiffSource
-
-        source = TiffSource(path)
-        return source.raw_rows(0, source.shape[0])
+        tiff = Tiff(path)
+        try:
+            return tiff.rows(0, tiff.shape[0])
+        except Exception as exc:  # decoders raise many types for damaged data
+            raise ImageError(f"{path}: not a readable TIFF ({error_reason(exc)})") from None
     try:
         if mode == "CMYK":
             from PIL import Image
@@ -153,7 +154,7 @@ def error_reason(exc):
     return (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)[:120]
 
 
-def _header(path):
+def image_header(path):
     """(mode, format, (H, W)) from the file's header, read by Pillow without decoding
     the pixels; ImageError saying why when it can't be opened."""
     import warnings
@@ -180,7 +181,7 @@ def _header(path):
         raise ImageError(f"{path}: not a readable image ({error_reason(exc)})") from None
 
 
-def _png16_header(path):
+def png16_header(path):
     """(H, W) of a PNG with 16-bit pixels and colour or alpha, which Pillow would cut to
     8 bits (IHDR: bit depth 16, colour type 2 RGB, 4 gray + alpha or 6 RGBA); None for
     any other file."""
@@ -207,3 +208,59 @@ def _read_png16(path):
         return image.reshape(height, width, planes)
     except Exception as exc:  # pypng, zlib and numpy errors for damaged data
         raise ImageError(f"{path}: not a readable image ({error_reason(exc)})") from None
+
+
+def npy_header(handle, path):
+    """(shape, dtype, data offset) of the .npy file open in ``handle``, checked: C order,
+    a plain dtype, and as many bytes of data as the shape needs, so that a hostile
+    header never makes csw allocate what it declares.  ImageError otherwise."""
+    try:
+        version = np.lib.format.read_magic(handle)
+        read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                else np.lib.format.read_array_header_2_0)
+        shape, fortran, dtype = read(handle)
+        offset = handle.tell()
+        size = os.fstat(handle.fileno()).st_size
+    except Exception as exc:  # numpy parses the header as Python literals: any error
+        raise ImageError(f"{path}: not a readable .npy array ({error_reason(exc)})") from None
+    if fortran or dtype.hasobject or dtype.names or dtype.subdtype:
+        raise ImageError(f"{path}: expected a plain array in C order, got {dtype} "
+                         f"{'(Fortran order)' if fortran else ''}".rstrip())
+    needed = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if size - offset < needed:
+        raise ImageError(f"{path}: the .npy file is truncated (its header says {shape}, "
+                         f"{needed} bytes; it holds {size - offset})")
+    return shape, dtype, offset
+
+
+class Tiff:
+    """A TIFF or BigTIFF's first page, read through tifffile's zarr view, so that rows
+    are decoded only as they are asked for.  shape: (H, W); colour: it has channels."""
+
+    def __init__(self, path):
+        import tifffile
+        import zarr
+
+        self.path = Path(path)
+        try:
+            with tifffile.TiffFile(self.path) as tif:
+                page = tif.pages.first
+                self._separate = page.planarconfig == tifffile.PLANARCONFIG.SEPARATE
+            self._store = tifffile.imread(self.path, aszarr=True, key=0)
+            self._array = zarr.open(self._store, mode="r")
+        except (tifffile.TiffFileError, ValueError, OSError, KeyError, IndexError) as exc:
+            raise ImageError(f"{self.path}: not a readable TIFF ({error_reason(exc)})") \
+                from None
+        shape = self._array.shape
+        if self._separate and len(shape) == 3:
+            shape = (shape[1], shape[2], shape[0])
+        if len(shape) not in (2, 3):
+            raise ImageError(f"{self.path}: expected one 2-D image, got shape {shape}")
+        self.shape = tuple(int(n) for n in shape[:2])
+        self.colour = len(shape) == 3
+
+    def rows(self, r0, r1):
+        """Rows r0..r1-1 as stored: (n, W) or (n, W, C)."""
+        if self._separate and len(self._array.shape) == 3:
+            return np.asarray(np.moveaxis(self._array[:, r0:r1], 0, -1))
+        return np.asarray(self._array[r0:r1])

@@ -39,7 +39,7 @@ def protect(path):
 
 
 def _error(message, option=None):
-    from ..params import OptionError
+    from ..config.params import OptionError
 
     return OptionError(option, message)
 

@@ -25,7 +25,16 @@ import numpy as np
 
 from . import safety
 from .formats import FORMATS
-from .images import ImageError, check_pixels, read_image, to_gray
+from .images import (
+    ImageError,
+    Tiff,
+    check_pixels,
+    image_header,
+    npy_header,
+    png16_header,
+    read_image,
+    to_gray,
+)
 
 
 def open_source(image, name="image", probe=True, striped=False):
@@ -98,34 +107,15 @@ class _Source:
 
 
 class TiffSource(_Source):
-    """A TIFF or BigTIFF read through tifffile's zarr view of its first page."""
+    """A TIFF or BigTIFF, its rows decoded as they are asked for (csw.io.images.Tiff)."""
 
     def __init__(self, path):
-        import tifffile
-        import zarr
-
         self.path = Path(path)
-        try:
-            with tifffile.TiffFile(self.path) as tif:
-                page = tif.pages.first
-                self._separate = page.planarconfig == tifffile.PLANARCONFIG.SEPARATE
-            self._store = tifffile.imread(self.path, aszarr=True, key=0)
-            self._array = zarr.open(self._store, mode="r")
-        except (tifffile.TiffFileError, ValueError, OSError, KeyError, IndexError) as exc:
-            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise ImageError(f"{self.path}: not a readable TIFF ({reason[:160]})") from None
-        shape = self._array.shape
-        if self._separate and len(shape) == 3:
-            shape = (shape[1], shape[2], shape[0])
-        if len(shape) not in (2, 3):
-            raise ImageError(f"{self.path}: expected one 2-D image, got shape {shape}")
-        self.shape = tuple(int(n) for n in shape[:2])
-        self.colour = len(shape) == 3
+        self._tiff = Tiff(self.path)
+        self.shape, self.colour = self._tiff.shape, self._tiff.colour
 
     def _read(self, r0, r1):
-        if self._separate and len(self._array.shape) == 3:
-            return np.moveaxis(self._array[:, r0:r1], 0, -1)
-        return self._array[r0:r1]
+        return self._tiff.rows(r0, r1)
 
 
 class NpySource(_Source):
@@ -133,8 +123,6 @@ class NpySource(_Source):
     page it touched in the process's memory."""
 
     def __init__(self, path):
-        from .formats import npy_header
-
         self.path = Path(path)
         try:
             with open(self.path, "rb") as f:
@@ -210,9 +198,7 @@ def _decoded(path):
 def _header_shape(path):
     """(H, W) from the file's header, without decoding the pixels (ImageError saying why
     it can't be read)."""
-    from .images import _header, _png16_header
-
-    return _png16_header(path) or _header(path)[2]
+    return png16_header(path) or image_header(path)[2]
 
 
 class ArraySource(_Source):

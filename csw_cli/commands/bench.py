@@ -2,8 +2,8 @@
 
 import click
 
-from csw import params
-from csw.tau import WORDS, parse_tau
+from csw.config import params
+from csw.config.tau import WORDS, parse_tau
 
 from .. import options as opt
 from ..report import emit

@@ -2,7 +2,7 @@
 
 import click
 
-from csw import params
+from csw.config import params
 
 
 @click.command("compile")
@@ -18,9 +18,9 @@ def compile_(presets):
       csw compile
       NUMBA_CACHE_DIR=.cache/numba csw compile --preset accurate
     """
-    from csw.executor import progress_bar
     from csw.kernels import native
-    from csw.prepare import compile_kernels, preset_entries
+    from csw.matching.setup import compile_kernels, preset_entries
+    from csw.scale.executor import progress_bar
 
     total = len(preset_entries(presets or None))
     with progress_bar(total, "csw compile", "kernel") as bar:

@@ -33,7 +33,7 @@ def depth(ctx, disparity, output, preview, **_):
       csw depth disp.pfm --calib calib_cam_to_cam.txt -o depth.tif --preview depth.png
       csw depth disp.pfm --focal 721.5 --baseline 0.537 -o depth.npy
     """
-    from csw.geometry import DEPTH_SUFFIXES, depth_file
+    from csw.camera.geometry import DEPTH_SUFFIXES, depth_file
     from csw.io.safety import check_outputs
 
     calibration = require(opt.calibration(ctx.params))
@@ -66,7 +66,7 @@ def cloud(ctx, disparity, output, image, max_depth, **_):
       csw cloud disp.pfm --calib calib.txt --image im0.png -o cloud.ply --units m
       csw cloud disp.pfm --calib stereo.yml --max-depth 20 -o cloud.ply
     """
-    from csw.geometry import CLOUD_SUFFIXES, cloud_file
+    from csw.camera.geometry import CLOUD_SUFFIXES, cloud_file
     from csw.io.safety import check_outputs
 
     calibration = require(opt.calibration(ctx.params))

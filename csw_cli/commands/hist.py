@@ -4,7 +4,7 @@ from pathlib import Path
 
 import click
 
-from csw import params
+from csw.config import params
 
 from .. import options as opt
 from ..report import emit
@@ -47,7 +47,7 @@ def hist(ctx, images, dataset, plot, fmt, data_dir, download, verify, **_):
     from csw import read_image
     from csw.eval import plots
     from csw.eval.histogram import min_cost_histogram
-    from csw.files import check_outputs
+    from csw.matching.files import check_outputs
 
     if bool(images) == bool(dataset) or (images and len(images) != 2):
         raise click.UsageError("give either LEFT RIGHT or --dataset NAME")

@@ -16,7 +16,7 @@ MATCH_OPTIONS = ["preset", "engine", "cost", "window", "dmin", "dmax", "csw", "c
 
 def summary_line(result):
     """The one line ``csw match`` prints on stderr about a match."""
-    from csw.tau import tau_label
+    from csw.config.tau import tau_label
 
     s = result.settings
     height, width = result.shape
@@ -47,7 +47,7 @@ def write_error(exc):
 
 
 def memory_size(ctx, param, value):
-    from csw.tiled import parse_size
+    from csw.scale.tiled import parse_size
 
     if value is None:
         return None
@@ -150,7 +150,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
       csw match lefts/ rights/ -O maps/ --workers 2
       csw match big_left.tif big_right.tif -o disp.tif --memory-limit 1GiB
     """
-    from csw import params
+    from csw.config import params
 
     settings = opt.given(ctx, MATCH_OPTIONS)
     calibration = None
@@ -183,7 +183,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     calibration = ctx.params["calib"] if ctx.params["calib"] and not by_hand else \
         opt.calibration(ctx.params)
     from csw import match_files
-    from csw.distributed import cluster
+    from csw.scale.distributed import cluster
 
     try:
         with opt.library_errors(), cluster(workers, scheduler) as client:
@@ -200,7 +200,7 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
                 workers=None, scheduler=None, calibration=None, three_d=None):
     """The batch form: pairs from two folders or a manifest, into OUTPUT_DIR."""
     from csw import jobs_from_folders, jobs_from_manifest, match_many
-    from csw.distributed import cluster
+    from csw.scale.distributed import cluster
 
     if output_dir is None:
         raise click.UsageError("matching many pairs needs --output-dir DIR")

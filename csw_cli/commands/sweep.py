@@ -2,9 +2,9 @@
 
 import click
 
-from csw import params
+from csw.config import params
+from csw.config.tau import parse_sweep
 from csw.eval.sweep import DEFAULT_TAUS
-from csw.tau import parse_sweep
 
 from .. import options as opt
 from ..report import emit
@@ -70,7 +70,7 @@ def sweep(ctx, datasets, dataset_dirs, cost, csw_rules, taus, uniquenesses, wind
       csw sweep -d teddy --tau-range 200:1200:200 --plot teddy.png
     """
     from csw import sweep_rows
-    from csw.files import check_outputs
+    from csw.matching.files import check_outputs
 
     with opt.library_errors():
         check_outputs({}, {"plot": plot})

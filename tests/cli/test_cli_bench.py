@@ -7,9 +7,9 @@ import pytest
 from click.testing import CliRunner
 
 from csw import kernels
+from csw.config.tau import paper_tau
 from csw.data import datasets as D
 from csw.eval.scoring import score
-from csw.tau import paper_tau
 from csw_cli.main import cli
 
 BENCH_KEYS = {"dataset", "size", "cost", "csw", "tau", "window", "dmin", "dmax",

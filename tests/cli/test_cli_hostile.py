@@ -190,7 +190,7 @@ def test_a_too_long_name_is_a_failed_pair_and_the_others_finish(tmp_path):
 
 def test_a_batch_survives_any_error_of_one_pair(tmp_path, monkeypatch):
     """Not only csw's own errors: an overflow, a zlib error, anything a pair raises."""
-    from csw import batch
+    from csw.scale import batch
 
     jobs = [batch.Job("a", tmp_path / "a.png", tmp_path / "a.png"),
             batch.Job("b", tmp_path / "b.png", tmp_path / "b.png")]

@@ -1,5 +1,5 @@
 """One csw match resolves its options exactly once (issue 26), counted with a spy on
-every module that holds csw.params.resolve."""
+every module that holds csw.config.params.resolve."""
 
 import importlib
 import sys
@@ -7,7 +7,7 @@ import sys
 import pytest
 from click.testing import CliRunner
 
-from csw import params
+from csw.config import params
 from csw_cli.main import cli
 
 
@@ -21,7 +21,8 @@ def test_one_match_resolves_its_options_once(pair_files, tmp_path, monkeypatch, 
         calls.append(given)
         return real(**given)
 
-    for name in ("csw.whole", "csw.files", "csw.tiled.run", "csw.batch"):
+    for name in ("csw.matching.matcher", "csw.matching.files", "csw.scale.tiled.run",
+                 "csw.scale.batch"):
         importlib.import_module(name)
     patched = [module for module in list(sys.modules.values())
                if getattr(module, "__name__", "").startswith(("csw", "csw_cli"))

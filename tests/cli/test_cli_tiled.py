@@ -105,11 +105,11 @@ def test_synth_writes_the_same_scene_as_tiled_tiffs(tmp_path):
 
 
 def test_a_pair_too_big_for_the_default_limit_is_striped_unasked(tmp_path, pair, monkeypatch):
-    import csw.tiled.plan
+    import csw.scale.tiled.plan
 
     invoke("match", *pair, "-o", tmp_path / "whole.pfm", "--dmax", DMAX)
     # As if the pair were big:
-    monkeypatch.setattr(csw.tiled.plan, "DEFAULT_MEMORY_LIMIT", 3 * 10**6)
+    monkeypatch.setattr(csw.scale.tiled.plan, "DEFAULT_MEMORY_LIMIT", 3 * 10**6)
     result = invoke("match", *pair, "-o", tmp_path / "d.pfm", "--dmax", DMAX)
     assert result.exit_code == 0 and " stripe(s))" in result.output
     assert "1 stripe(s)" not in result.output

@@ -9,8 +9,8 @@ import pytest
 
 import oracle
 from csw import kernels
+from csw.config.tau import paper_tau
 from csw.data import datasets as D
-from csw.tau import paper_tau
 
 
 def assert_engines_equal(left, right, **options):
@@ -61,7 +61,7 @@ def test_engines_equal_on_synthetic_16_bit_with_dmin():
 ])
 def test_accumulator_width(cost, dtype, window, expected):
     from csw.kernels.contract import COSTS
-    from kernels.fast import accumulator_dtype
+    from csw.kernels.fast import accumulator_dtype
 
     assert accumulator_dtype(np.dtype(dtype), COSTS[cost], window) == expected
 

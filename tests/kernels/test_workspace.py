@@ -7,8 +7,10 @@ import numpy as np
 import pytest
 
 import csw
-from csw import kernels, params, pipeline
+from csw import kernels
+from csw.config import params
 from csw.kernels.workspace import Workspace, for_this_thread
+from csw.matching import pipeline
 
 
 def test_a_role_reuses_its_buffer_and_grows_it():

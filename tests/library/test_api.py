@@ -4,10 +4,12 @@ import numpy as np
 import pytest
 
 import csw
-from csw import kernels, params, pipeline
+from csw import kernels
+from csw.config import params
+from csw.config.params import DEFAULTS as MATCH
+from csw.config.params import PRESETS
 from csw.io import luma
-from csw.params import DEFAULTS as MATCH
-from csw.params import PRESETS
+from csw.matching import pipeline
 
 
 def test_defaults_are_the_table_and_its_preset(small_scene):
@@ -48,10 +50,10 @@ def test_unique_rule_defaults_to_no_tau(small_scene):
 def test_tau_auto_comes_from_sampled_rows(small_scene):
     left, right, _, _ = small_scene
     result = csw.match(left, right, dmax=16, csw=True, preset="raw")
-    rows = csw.tau.sample_rows(left.shape[0])
+    rows = csw.config.tau.sample_rows(left.shape[0])
     sample = kernels.match(left, right, engine="fast", window=9, dmin=0, dmax=16, cost="sad",
                            rows=rows)
-    assert result.settings["tau"] == csw.tau.paper_tau(sample.min_cost)
+    assert result.settings["tau"] == csw.config.tau.paper_tau(sample.min_cost)
     assert result.settings["tau_source"] == "auto"
 
 
@@ -96,9 +98,9 @@ def test_loading_the_kernels_loads_what_the_match_runs(cost, dtype, options):
 
     rng = np.random.default_rng(0)
     left = rng.integers(0, 200, (40, 60)).astype(dtype)
-    opts = csw.params.resolve(**{"preset": "raw", **options, "cost": cost, "window": 9,
+    opts = csw.config.params.resolve(**{"preset": "raw", **options, "cost": cost, "window": 9,
                                  "dmax": 8})
-    csw.prepare.load_kernels(opts, csw.params.stages(opts), np.dtype(dtype))
+    csw.matching.setup.load_kernels(opts, csw.config.params.stages(opts), np.dtype(dtype))
     loaded = dict(native._LOADED)
     csw.match(left, np.roll(left, 2, 1), **{"preset": "raw", **options, "cost": cost,
                                              "window": 9, "dmax": 8})

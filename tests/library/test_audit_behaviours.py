@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 import csw
-from csw import autorange, batch
-from csw.calib import read_calibration
+from csw.camera.calibration import read_calibration
 from csw.io import atomic
+from csw.matching import autorange
+from csw.scale import batch
 
 
 def test_middlebury_doffs_from_cam1_and_cam0(tmp_path):
@@ -52,7 +53,7 @@ def shrunk_map(monkeypatch, found):
     class Result:
         disparity = found
 
-    monkeypatch.setattr("csw.whole.match", lambda *a, **k: Result)
+    monkeypatch.setattr("csw.matching.matcher.match", lambda *a, **k: Result)
 
 
 @pytest.mark.parametrize("share, refused", [(0.009, True), (0.011, False)])

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import csw
-import csw.batch
+import csw.scale.batch
 from csw.data.synth import render
 from csw.io import read_disparity, write_png
 
@@ -98,7 +98,7 @@ def test_two_pairs_writing_one_output_are_refused(folders):
 def test_an_interrupted_batch_says_what_finished(folders, monkeypatch):
     root, _ = folders
     calls = []
-    real = csw.batch.run_job
+    real = csw.scale.batch.run_job
 
     def run_then_stop(task, **options):
         calls.append(task[0].name)
@@ -106,7 +106,7 @@ def test_an_interrupted_batch_says_what_finished(folders, monkeypatch):
             raise KeyboardInterrupt
         return real(task, **options)
 
-    monkeypatch.setattr(csw.batch, "run_job", run_then_stop)
+    monkeypatch.setattr(csw.scale.batch, "run_job", run_then_stop)
     jobs = csw.jobs_from_folders(root / "left", root / "right")
     with pytest.raises(KeyboardInterrupt):
         csw.match_many(jobs, root / "out", dmax=12, progress=False)
@@ -119,7 +119,7 @@ def test_a_batch_pair_is_a_single_pair_and_can_be_striped(folders, monkeypatch):
     """One path from a pair to files: a batch pair's map has the bytes of the same pair
     matched alone, and a pair too big for memory is matched in stripes (forced here),
     to the same bytes."""
-    import csw.files
+    import csw.matching.files
 
     root, _ = folders
     jobs = csw.jobs_from_folders(root / "left", root / "right")
@@ -127,7 +127,7 @@ def test_a_batch_pair_is_a_single_pair_and_can_be_striped(folders, monkeypatch):
     csw.match_files(jobs[0].left, jobs[0].right, root / "one.pfm", dmax=12)
     whole = (root / "out" / f"{jobs[0].name}.pfm").read_bytes()
     assert whole == (root / "one.pfm").read_bytes()
-    monkeypatch.setattr(csw.files, "too_big_for_whole", lambda *a, **k: True)
+    monkeypatch.setattr(csw.matching.files, "too_big_for_whole", lambda *a, **k: True)
     report = csw.match_many(jobs[:1], root / "striped", dmax=12, progress=False)
     assert report["pairs"][0]["stripes"] >= 1
     assert (root / "striped" / f"{jobs[0].name}.pfm").read_bytes() == whole

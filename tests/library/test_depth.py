@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import csw
-from csw.calib import from_q, read_calibration
-from csw.geometry import depth, point_cloud, write_ply
+from csw.camera.calibration import from_q, read_calibration
+from csw.camera.geometry import depth, point_cloud, write_ply
 
 cv2 = pytest.importorskip("cv2")
 plyfile = pytest.importorskip("plyfile")

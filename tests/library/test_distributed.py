@@ -19,7 +19,7 @@ distributed = pytest.importorskip("dask.distributed")
 
 @pytest.fixture(scope="module")
 def client():
-    from csw.distributed import close, local_client
+    from csw.scale.distributed import close, local_client
 
     client = local_client(2)
     yield client
@@ -98,7 +98,7 @@ def test_cli_workers_and_an_unreachable_scheduler(tmp_path):
 def test_the_stripes_of_one_pair_as_cluster_tasks(tmp_path, client):
     import tifffile
 
-    from csw.tiled import match_tiled
+    from csw.scale.tiled import match_tiled
 
     left, right, _, _ = render(300, 157, dmax=20, seed=3)
     tifffile.imwrite(tmp_path / "l.tif", left, tile=(32, 32))

@@ -1,6 +1,6 @@
 """The library accepts what it documents, and refuses the rest with a ValueError.
 
-csw.params.OPTIONS is the one table of options; csw.match, the CLI and the experiments
+csw.config.params.OPTIONS is the one table of options; csw.match, the CLI and the experiments
 read it.  These tests call csw.match with the spellings its docstring and the CLI's help
 give, and with random values of every kind.
 """
@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import csw
-from csw import params
+from csw.config import params
 
 LEFT = (np.arange(24 * 40).reshape(24, 40) * 37 % 251).astype(np.uint8)
 RIGHT = np.roll(LEFT, -2, axis=1)

@@ -9,8 +9,10 @@ from hypothesis import strategies as st
 
 import csw
 import oracle
-from csw import kernels, params, pipeline
+from csw import kernels
+from csw.config import params
 from csw.kernels import filters, runtime
+from csw.matching import pipeline
 
 
 def random_map(rng, shape, levels=5, holes=0.2):

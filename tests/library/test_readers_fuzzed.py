@@ -10,8 +10,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import csw
-from csw.batch import jobs_from_manifest
 from csw.io.sources import open_source
+from csw.scale.batch import jobs_from_manifest
 
 READERS = {
     "read_image": csw.read_image,

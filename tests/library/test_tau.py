@@ -2,7 +2,7 @@ import math
 
 import pytest
 
-from csw.tau import parse_sweep, parse_tau, resolve_tau
+from csw.config.tau import parse_sweep, parse_tau, resolve_tau
 
 
 @pytest.mark.parametrize("text, value", [("auto", "auto"), ("none", "none"), ("paper", "paper"),

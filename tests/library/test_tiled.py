@@ -12,12 +12,12 @@ import tifffile
 import zarr
 
 import csw
-import csw.tiled as tiled
+import csw.scale.tiled as tiled
 from csw.data.synth import render, write_tiff_scene
 from csw.io import ImageError, colorize, read_disparity, read_image, read_pfm, write_png
 from csw.io.sources import open_source
-from csw.tiled import plan as tiled_plan
-from csw.tiled import tasks as tiled_tasks
+from csw.scale.tiled import plan as tiled_plan
+from csw.scale.tiled import tasks as tiled_tasks
 
 WIDTH, HEIGHT, DMAX = 160, 101, 24  # an odd height: the last stripe is short
 
@@ -110,8 +110,8 @@ def test_the_filter_overlap_is_exactly_enough(tmp_path, stages, tight):
     filter keeps the first and removes the second only with S - 1 rows of overlap; a
     random map does the same for the median.  (On the segments the 3 x 3 median changes
     nothing, so together they are only checked for exactness.)"""
-    from csw.params import OFF
-    from csw.pipeline import filter_map, filter_overlap
+    from csw.config.params import OFF
+    from csw.matching.pipeline import filter_map, filter_overlap
 
     stages = dict(OFF, **stages)
     rng = np.random.default_rng(0)
@@ -277,7 +277,7 @@ def test_a_memory_limit_below_one_stripe_is_refused(tmp_path, scene):
 
 
 def test_stripes_grow_with_the_memory_limit():
-    options = csw.params.resolve(dmax=64)
+    options = csw.config.params.resolve(dmax=64)
     heights = [tiled_plan.plan(20000, 20000, options, tiled.parse_size(limit), threads=2)
                .stripe_rows for limit in ("256MiB", "512MiB", "1GiB", "2GiB")]
     assert heights == sorted(heights) and heights[0] < heights[-1] < 20000
@@ -301,10 +301,10 @@ def test_memory_follows_the_stripe_not_the_image(tmp_path):
         write_tiff_scene(tmp_path / f"h{height}", 4000, height, dmax=32, seed=2, processes=1)
     write_tiff_scene(tmp_path / "small", 200, 60, dmax=32, seed=2, processes=1)
     limit, libraries = 64 * 2**20, 32 * 2**20
-    options = csw.params.resolve(dmax=32)
+    options = csw.config.params.resolve(dmax=32)
     assert tiled_plan.plan(1000, 4000, options, stripe_rows=1000).bytes_per_stripe > 3 * limit
     script = textwrap.dedent(f"""
-        import sys, csw.tiled as t
+        import sys, csw.scale.tiled as t
         def run(scene):
             return t.match_tiled(f"{tmp_path}/{{scene}}/left.tif",
                                  f"{tmp_path}/{{scene}}/right.tif",

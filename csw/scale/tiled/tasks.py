@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from ..pipeline import filter_map, is_row_local, match_rows
+from ...matching.pipeline import filter_map, is_row_local, match_rows
 
 
 def match_stripe(task):

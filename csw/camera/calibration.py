@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .io import safety
-from .params import OptionError
+from ..config.params import OptionError
+from ..io import safety
 
 MAX_FILE_BYTES = 1 << 20  # a calibration is a few lines: a larger file is not one
 
@@ -159,7 +159,7 @@ def read_calibration(path):
             raise OptionError("calib", f"{path}: {size} bytes is too large for a "
                                        f"calibration (at most {MAX_FILE_BYTES})")
         if path.suffix.lower() == ".npy":
-            from .io.formats import load_npy
+            from ..io.formats import load_npy
 
             return from_q(load_npy(path), str(path))
         text = path.read_text(errors="replace")

@@ -1,6 +1,6 @@
 """From disparity to 3-D: depth maps, point clouds as binary PLY, and a depth preview.
 
-Depth is Z = f B / (d + doffs) in the calibration's units (csw.calib); points are
+Depth is Z = f B / (d + doffs) in the calibration's units (csw.camera.calibration); points are
 OpenCV's reprojection, [X Y Z W] = Q [x y d 1] (x right, y down, z forward, in the left
 camera's frame), so they equal cv2.reprojectImageTo3D's for the same Q.
 """
@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .io.formats import as_float_disparity
-from .params import OptionError
+from ..config.params import OptionError
+from ..io.formats import as_float_disparity
 
 # A turbo-like ramp, dark blue to dark red, by linear interpolation between these colours
 # (sampled from Google's Turbo colormap), so no plotting library is needed.
@@ -49,7 +49,7 @@ def check_max_depth(max_depth):
 
 def depth(disparity, calib, units=None):
     """The depth map of ``disparity`` (float or int, any of csw's conventions) with a
-    csw.calib.Calibration: float32 (H, W), Z = f B / (d + doffs), in the calibration's
+    csw.camera.calibration.Calibration: float32 (H, W), Z = f B / (d + doffs), in the calibration's
     units or ``units`` ("m", "mm" ...); NaN where the disparity is invalid or the point
     would not lie in front of the cameras (d + doffs <= 0)."""
     scale = calib.scale_to(units)
@@ -117,7 +117,7 @@ def ply_writer(points, colours=None):
 
 def write_ply(path, points, colours=None):
     """Write a point cloud as binary PLY, atomically (see ply_writer)."""
-    from .io.atomic import atomic_write
+    from ..io.atomic import atomic_write
 
     atomic_write(path, ply_writer(points, colours))
 
@@ -175,7 +175,7 @@ def writers(disparity, calib, depth_path=None, cloud_path=None, preview_path=Non
 
 def _depth_writers(z, depth_path, preview_path):
     """(path, write_to) of the depth map z and of its preview, where asked for."""
-    from .io.formats import float_map_writer, png_writer
+    from ..io.formats import float_map_writer, png_writer
 
     items = []
     if depth_path is not None:
@@ -188,8 +188,8 @@ def _depth_writers(z, depth_path, preview_path):
 def depth_file(disparity, output, calib, units=None, preview_path=None):
     """Read a disparity map file, write its depth map (and preview), atomically; returns
     the depth map (float32, NaN invalid).  calib: a csw.Calibration."""
-    from .io.atomic import atomic_write_all
-    from .io.formats import read_disparity
+    from ..io.atomic import atomic_write_all
+    from ..io.formats import read_disparity
 
     z = depth(read_disparity(disparity), calib, units)
     atomic_write_all(_depth_writers(z, output, preview_path))
@@ -199,8 +199,8 @@ def depth_file(disparity, output, calib, units=None, preview_path=None):
 def cloud_file(disparity, output, calib, image=None, max_depth=None, units=None):
     """Read a disparity map file (and the left image, for colours), write the point cloud
     as binary PLY, atomically; returns the number of points."""
-    from .io.formats import read_disparity
-    from .io.images import ImageError, read_colour
+    from ..io.formats import read_disparity
+    from ..io.images import ImageError, read_colour
 
     disp = read_disparity(disparity)
     if image is not None:

@@ -1,7 +1,7 @@
 """``csw.match_tiled``: one pair matched stripe by stripe, so memory follows the stripe,
 not the image; the maps equal :func:`csw.match`'s bit for bit.
 
-Every stripe is a task (:mod:`.tasks`), run through :func:`csw.executor.run_tasks`: here
+Every stripe is a task (:mod:`.tasks`), run through :func:`csw.scale.executor.run_tasks`: here
 one after another (each uses all of Numba's threads over its rows), or on a Dask
 cluster.  The maps go to temporary zarr stores beside the output (so cluster workers that
 can write the output can write them), and the outputs are then written from the stores a
@@ -17,14 +17,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ...config.params import resolve
+from ...io.atomic import atomic_write_all, make_temporary_dir, temporary_prefix
+from ...io.formats import check_range, format_of, preview_stripes, stripe_writer
+from ...io.safety import check_target
+from ...io.sources import open_source
+from ...matching.pipeline import is_row_local, match_rows
+from ...matching.setup import prepare
 from ..executor import progress_bar, run_tasks
-from ..io.atomic import atomic_write_all, make_temporary_dir, temporary_prefix
-from ..io.formats import check_range, format_of, preview_stripes, stripe_writer
-from ..io.safety import check_target
-from ..io.sources import open_source
-from ..params import resolve
-from ..pipeline import is_row_local, match_rows
-from ..prepare import prepare
 from .plan import Plan, input_band, map_band, parse_size, plan
 from .tasks import create_store, filter_stripe, match_stripe, store_blocks
 
@@ -94,7 +94,7 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
         A progress bar over the stripes, on stderr.
     **options
         Matching options, as for :func:`csw.match`; or ``config``, an option set that
-        csw.params.resolve made already.
+        csw.config.params.resolve made already.
 
     Returns
     -------
@@ -132,7 +132,7 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
         return layout[0]
 
     def shrunk(f):
-        from ..autorange import shrink
+        from ...matching.autorange import shrink
 
         def small(source):  # whole blocks of f rows, a band at a time
             band = f * max(1, 2**20 // (f * width))

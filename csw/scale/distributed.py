@@ -1,7 +1,7 @@
 """Dask clusters for csw: a local one started for a batch, or an existing one by address.
 
 Dask is an optional extra (``pip install 'csw[dask]'``); only this module and the
-executor (csw.executor, given a client) import it.
+executor (csw.scale.executor, given a client) import it.
 Each worker is a process with one task thread; Numba's threads are split so that the
 workers together use the machine's cores once.
 """
@@ -75,7 +75,7 @@ def cluster(workers=None, scheduler=None):
     if workers is None and scheduler is None:
         yield None
         return
-    from .params import OptionError
+    from ..config.params import OptionError
 
     try:
         client = remote_client(scheduler) if scheduler is not None else local_client(workers)

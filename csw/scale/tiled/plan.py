@@ -2,21 +2,21 @@
 stripe reads.
 
 Rows are independent in CSW, so a stripe read with the rows above and below that the
-windows reach gives exactly the rows of a whole-image match (:func:`csw.pipeline.
+windows reach gives exactly the rows of a whole-image match (:func:`csw.matching.pipeline.
 row_overlap`).  The speckle filter and the median look across rows: when they are on, a
 second pass reads the first pass's map back with the rows they need
-(:func:`csw.pipeline.filter_overlap`), which makes them exact too.
+(:func:`csw.matching.pipeline.filter_overlap`), which makes them exact too.
 """
 
 import math
 import re
 from dataclasses import dataclass
 
-from ..io.formats import TIFF_TILE
-from ..io.sources import open_source
-from ..kernels import runtime
-from ..params import stages
-from ..pipeline import filter_overlap, row_overlap
+from ...config.params import stages
+from ...io.formats import TIFF_TILE
+from ...io.sources import open_source
+from ...kernels import runtime
+from ...matching.pipeline import filter_overlap, row_overlap
 
 DEFAULT_MEMORY_LIMIT = 512 * 2**20  # the stripes' working memory, per process
 

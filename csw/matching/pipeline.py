@@ -1,4 +1,4 @@
-"""The matching pipeline around the CSW kernels; every stage is an option (csw.params holds
+"""The matching pipeline around the CSW kernels; every stage is an option (csw.config.params holds
 their defaults and allowed values) and off in the paper's contract:
 
   prefilter          "none", or "xsobel": StereoBM's x-Sobel response clipped to
@@ -27,8 +27,8 @@ invalid or without a second candidate): how distinct the match is.
 
 import numpy as np
 
-from . import kernels
-from .kernels.filters import fill_background, median_valid, speckle_mask
+from .. import kernels
+from ..kernels.filters import fill_background, median_valid, speckle_mask
 
 
 def xsobel(image, cap):
@@ -54,7 +54,7 @@ def box_sum(values, window):
 def entries(args, stages, dtype, confidence=False):
     """The compiled kernel entries (csw.kernels.native) a run of the pipeline with these
     kernel arguments and stages loads, for images of ``dtype``."""
-    from .kernels.filters import entries as filter_entries
+    from ..kernels.filters import entries as filter_entries
 
     return kernels.entries(args["engine"], args["cost"], dtype, args["window"],
                            stages["census_window"], args.get("csw", False), False,
@@ -116,7 +116,7 @@ def run(left, right, kernel_args, stages, confidence=False, workspace=None):
     stage asked for the second-best costs.
 
     left, right: uint8/uint16 (H, W).  kernel_args: csw.kernels.match's arguments (engine,
-    window, range, cost, CSW).  stages: checked stage options (csw.params.stages of a
+    window, range, cost, CSW).  stages: checked stage options (csw.config.params.stages of a
     resolved option set; see the module's docstring).
     confidence: compute the second-best costs for the confidence map even when no stage
     needs them.

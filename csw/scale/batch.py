@@ -14,15 +14,15 @@ from pathlib import Path
 
 import numpy as np
 
-from . import calib as calib_module
+from ..camera import calibration as calib_module
+from ..camera.geometry import check_max_depth
+from ..config.params import OptionError, resolve
+from ..io import safety
+from ..io.atomic import atomic_write, remove_temporaries
+from ..io.formats import check_range, suffixes
+from ..io.images import ImageError
+from ..matching.files import COMPANIONS, match_files
 from .executor import progress_bar, run_tasks
-from .files import COMPANIONS, match_files
-from .geometry import check_max_depth
-from .io import safety
-from .io.atomic import atomic_write, remove_temporaries
-from .io.formats import check_range, suffixes
-from .io.images import ImageError
-from .params import OptionError, resolve
 
 # A name's outputs add a suffix (".depth.tiff") to it, and a file name holds 255 bytes.
 MAX_NAME_BYTES = 200
@@ -259,7 +259,7 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     client : dask.distributed.Client, optional
         Run each pair as a task on this cluster: the workers read the images and write
         the maps; a worker that dies has its tasks rerun elsewhere (writes are atomic, so
-        a rerun never leaves a partial map).  See :func:`csw.distributed.local_client`.
+        a rerun never leaves a partial map).  See :func:`csw.scale.distributed.local_client`.
     calib : path or csw.Calibration, optional
         One calibration for every pair; default: each pair's calib.txt beside its left
         image (Middlebury 2014's layout), whose ndisp also sets its range when the

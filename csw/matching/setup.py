@@ -1,22 +1,23 @@
 """What every match does before its first row, in one place, for whole images
-(csw.whole) and row stripes (csw.tiled) alike: resolve the options, check the pair once
-with the kernels' own rules, compile (or load) the kernels, and resolve tau.
+(csw.matching.matcher) and row stripes (csw.scale.tiled) alike: check the pair once with
+the kernels' own rules, compile (or load) the kernels, and resolve tau.
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from . import kernels, params
+from .. import kernels
+from ..config import params
+from ..config.tau import resolve_tau, sample_rows
 from .pipeline import entries
-from .tau import resolve_tau, sample_rows
 
 
 @dataclass
 class Prepared:
     """A match ready to run.
 
-    opts: the resolved options (csw.params.resolve).  stages: the pipeline's stage
+    opts: the resolved options (csw.config.params.resolve).  stages: the pipeline's stage
     options.  args: the kernels' arguments, with csw and the resolved tau.  settings:
     opts with tau resolved to a number (-1 when CSW is off), ``tau_source`` and the
     uniqueness margin used.  compile_seconds: the JIT compile or cache load.  plan: what
@@ -35,18 +36,18 @@ def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None
             confidence=False, shrunk=None):
     """Prepare a match of a pair of ``shape`` (H, W) and ``dtype``.
 
-    opts: the resolved options (csw.params.resolve: the callers resolve them before
+    opts: the resolved options (csw.config.params.resolve: the callers resolve them before
     reading any pixel, so a bad option fails first).
     right: (shape, dtype) of the right image, checked against the left's.
     sample_min_cost(args, stages, rows): plain matching's min-cost rows (int64 (n, W))
-        for the rows tau auto samples (csw.tau.sample_rows), matched with ``stages``;
+        for the rows tau auto samples (csw.config.tau.sample_rows), matched with ``stages``;
         called only when tau resolves to auto.
-    make_plan(opts): how the match will run (csw.tiled's stripes), made once the pair is
+    make_plan(opts): how the match will run (csw.scale.tiled's stripes), made once the pair is
         checked and its range known, before anything compiles; its result is
         ``Prepared.plan``.
     confidence: the run computes the confidence map (its kernels make the second-best
         costs).
-    shrunk(f): the pair shrunk f times (csw.autorange.shrink), for a range "auto".
+    shrunk(f): the pair shrunk f times (csw.matching.autorange.shrink), for a range "auto".
     Raises ValueError, saying how to fix it, on any bad option or pair.
     """
     if right is not None:
@@ -132,7 +133,7 @@ def compile_kernels(presets=None, progress=None):
     :func:`preset_entries`), so that later runs, here or on a machine that shares the
     cache, load them at once.  progress(key, compiled) is called for each entry.
     Returns (entries compiled, entries already there, seconds)."""
-    from .kernels import native
+    from ..kernels import native
 
     wanted = preset_entries(presets)
     before = native.STATS["compiled"]

@@ -12,7 +12,7 @@ ValueError whose message says how to fix them.
 import math
 from dataclasses import dataclass
 
-from .kernels.contract import (
+from ..kernels.contract import (
     CENSUS_PATTERNS,
     COSTS,
     DEFAULT_CENSUS_PATTERN,
@@ -45,8 +45,8 @@ class Option:
       off_int  None ("off") or a whole number in [low, high]
       auto_int None (the derived default ``default_text`` names) or a whole number
       int_auto a whole number, or "auto" (found from the pair)
-      tau      a tau as csw.tau reads it (a number >= 0, "auto", "none"), or None
-    stage: a pipeline stage around the kernels (csw.pipeline), off in the paper's contract.
+      tau      a tau as csw.config.tau reads it (a number >= 0, "auto", "none"), or None
+    stage: a pipeline stage around the kernels (csw.matching.pipeline), off in the paper's contract.
     flag: the command-line flag, where it differs from --name-with-dashes.
     """
 
@@ -182,7 +182,7 @@ OPTIONS = {o.name: o for o in [
                 "candidate 2 or more disparities away by this much."),
     Option("threads", "auto_int", None, low=1, default_text="all cores",
            help="Threads for row-parallel matching."),
-    # The pipeline's stages (csw.pipeline), all off in the paper's contract.
+    # The pipeline's stages (csw.matching.pipeline), all off in the paper's contract.
     Option("prefilter", "choice", "none", choices=("none", "xsobel"), stage=True,
            help="xsobel: StereoBM's x-Sobel prefilter, clipped to +-cap."),
     Option("prefilter_cap", "int", 31, low=1, high=63, stage=True,

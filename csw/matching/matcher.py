@@ -1,7 +1,7 @@
 """``csw.match``: one rectified pair in memory, a disparity map and what goes with it out.
 
-Pairs bigger than memory go through :mod:`csw.tiled`; :func:`csw.files.match_files`
-chooses between the two for files.  Both prepare through :mod:`csw.prepare`.
+Pairs bigger than memory go through :mod:`csw.scale.tiled`; :func:`csw.matching.files.match_files`
+chooses between the two for files.  Both prepare through :mod:`csw.matching.setup`.
 """
 
 import time
@@ -10,12 +10,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import kernels
-from .io.images import read_image, to_gray
-from .params import resolve
+from .. import kernels
+from ..config.params import resolve
+from ..io.images import read_image, to_gray
 from .pipeline import match_rows
 from .pipeline import run as run_pipeline
-from .prepare import prepare
+from .setup import prepare
 
 
 @dataclass
@@ -43,7 +43,7 @@ class Result:
     settings: dict = field(default_factory=dict)
     seconds: float = 0.0
     compile_seconds: float = 0.0
-    stripes = None  # matched whole (csw.tiled's results give their stripe count)
+    stripes = None  # matched whole (csw.scale.tiled's results give their stripe count)
 
     @property
     def shape(self):
@@ -85,7 +85,7 @@ def match(left, right, want_confidence=False, **options):
         Image files, or uint8/uint16 arrays (H, W) or (H, W, 3|4); colour is converted to
         gray with the ITU-R 601-2 luma, as ``csw match`` does.
     preset : {"accurate", "raw", "paper"}
-        A named set of the options below (see :data:`csw.params.PRESETS`); options given
+        A named set of the options below (see :data:`csw.config.params.PRESETS`); options given
         explicitly override it.  "paper" takes no stage.
     engine : {"fast", "window"}
         Running sums, or a full window sum per candidate (the paper's method).  Both give
@@ -108,12 +108,12 @@ def match(left, right, want_confidence=False, **options):
         Threads (default: all cores).
     prefilter, prefilter_cap, census_window, census_pattern, lr_check, uniqueness_ratio,
     texture_threshold, subpixel, speckle_size, speckle_range, median, fill
-        The pipeline's stages (see :mod:`csw.pipeline`); ``lr_check``,
+        The pipeline's stages (see :mod:`csw.matching.pipeline`); ``lr_check``,
         ``uniqueness_ratio`` and ``texture_threshold`` take a number or "off" (None).
     want_confidence : bool
         Compute the confidence map even when no stage needs the second-best costs.
 
-    Every option's default, allowed values and help are in :data:`csw.params.OPTIONS`.
+    Every option's default, allowed values and help are in :data:`csw.config.params.OPTIONS`.
 
     ``csw.match(left, right, **options)`` is ``csw.Matcher(**options).match(left,
     right)``: for many pairs with the same options, make the Matcher once.
@@ -152,13 +152,13 @@ class Matcher:
     def __init__(self, pixels=np.uint8, config=None, **options):
         if config is not None and options:
             raise TypeError("give a Matcher its options or a resolved config, not both")
-        # TypeError / ValueError now.  config: an option set csw.params.resolve made
+        # TypeError / ValueError now.  config: an option set csw.config.params.resolve made
         # already (csw's own callers, which resolve before they read any file).
         self.options = resolve(**options) if config is None else config
         self._found_range = None
         if pixels is not None and "auto" not in (self.options["dmin"], self.options["dmax"]):
-            from . import params
-            from .prepare import load_kernels
+            from ..config import params
+            from .setup import load_kernels
 
             load_kernels(self.options, params.stages(self.options), np.dtype(pixels))
 

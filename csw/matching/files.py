@@ -1,20 +1,22 @@
 """``csw.match_files``: a pair of image files in, the map and its companions written out.
-This is where csw decides how a pair is matched: whole in memory (:mod:`csw.whole`), or in
-row stripes (:mod:`csw.tiled`) when asked, when a format needs it, or when the pair would
-not fit the memory limit.  Both give the same map, bit for bit.
+This is where csw decides how a pair is matched: whole in memory
+(:mod:`csw.matching.matcher`), or in row stripes (:mod:`csw.scale.tiled`) when asked, when
+a format needs it, or when the pair would not fit the memory limit.  Both give the same
+map, bit for bit.
 """
 
 from pathlib import Path
 
 import numpy as np
 
-from . import calib as calib_module
-from . import kernels
-from .geometry import CLOUD_SUFFIXES, DEPTH_SUFFIXES, check_max_depth
-from .geometry import writers as three_d_writers
-from .io import safety
-from .io.atomic import atomic_write_all
-from .io.formats import (
+from .. import kernels
+from ..camera import calibration as calib_module
+from ..camera.geometry import CLOUD_SUFFIXES, DEPTH_SUFFIXES, check_max_depth
+from ..camera.geometry import writers as three_d_writers
+from ..config.params import OptionError, resolve
+from ..io import safety
+from ..io.atomic import atomic_write_all
+from ..io.formats import (
     check_range,
     colorize,
     disparity_writer,
@@ -22,11 +24,10 @@ from .io.formats import (
     png_writer,
     suffixes,
 )
-from .io.images import ImageError, read_colour, read_image
-from .io.sources import open_source
-from .params import OptionError, resolve
-from .tiled import match_tiled, too_big_for_whole
-from .whole import Matcher
+from ..io.images import ImageError, read_colour, read_image
+from ..io.sources import open_source
+from ..scale.tiled import match_tiled, too_big_for_whole
+from .matcher import Matcher
 
 # What each companion output may be, by role (csw.io.formats.suffixes).
 COMPANIONS = {"preview": (".png",), "cost_map": (".pfm",), "plot": (".png",),
@@ -86,7 +87,7 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     Raises
     ------
     ValueError
-        Bad options or outputs (an :class:`csw.params.OptionError` naming the argument).
+        Bad options or outputs (an :class:`csw.config.params.OptionError` naming the argument).
     csw.ImageError
         An input that can't be read (its ``option`` names it: "left" or "right").
     """
@@ -135,7 +136,7 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     images = [_read(path, name) for name, path in (("left", left), ("right", right))]
     result = Matcher(pixels=None, config=opts).match(*images, confidence is not None)
     # One pair: its outputs are written next, and scratch kept for a next match would
-    # only raise this process's peak memory (a batch keeps it: csw.batch).
+    # only raise this process's peak memory (a batch keeps it: csw.scale.batch).
     if not keep_scratch:
         kernels.workspace.for_this_thread().release()
     disp = result.disparity

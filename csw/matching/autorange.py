@@ -42,7 +42,7 @@ def estimate(small_left, small_right, f, width, dmin=None, dmax=None, threads=No
     """(dmin, dmax) for the full pair (``width`` wide) from its f-times shrunk images;
     a bound given (not None) is kept as given.  ValueError when the small pair yields no
     confident disparity to go by."""
-    from .whole import match
+    from .matcher import match
 
     small_width = small_left.shape[1]
     low = -(small_width // 4) if dmin is None else math.floor(dmin / f)

@@ -1,0 +1,1 @@
+"""The camera's side: calibrations (calibration), depth maps and point clouds (geometry)."""
