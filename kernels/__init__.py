@@ -39,7 +39,7 @@ def match(left, right, *, engine, **options):
 
 
 def entries(engine, cost, pixels, window, census_window, csw, right_map, extras, dmin=0,
-            lr_check=False, census_pattern=contract.DEFAULT_CENSUS_PATTERN):
+            lr_check=False, census_pattern=None):
     """The compiled entries (kernels/native.py) a match with these settings loads: its
     census transform, if any, its engine's variant, and the window engine's left-right
     check (the fast engine makes it in its rows).  lr_check: whether there is one."""

@@ -20,7 +20,6 @@ import numpy as np
 from . import native, runtime
 from .contract import (
     CENSUS,
-    DEFAULT_CENSUS_PATTERN,
     SHD,
     census_dtype,
     census_places,
@@ -29,13 +28,13 @@ from .contract import (
 )
 
 
-def variant(pixels, size, pattern=DEFAULT_CENSUS_PATTERN):
+def variant(pixels, size, pattern):
     """The compiled variant (kernels/native.py) for images of type ``pixels``."""
     return (dtype_name(pixels), dtype_name(census_dtype(size, pattern)))
 
 
-def census_transform(image, size, threads=None, pad=0, reverse=False, out=None,
-                     pattern=DEFAULT_CENSUS_PATTERN):
+def census_transform(image, size, threads=None, pad=0, reverse=False, out=None, *,
+                     pattern):
     """Census codes of a uint8/uint16 (H, W) image with a size x size window (odd) and a
     pattern ("dense" or "sparse"): an (H, W) array of the narrowest unsigned type holding
     the pattern's bits (at most 64: dense up to 7 x 7, sparse up to 15 x 15).
@@ -75,8 +74,7 @@ def _places_array(size, pattern):
     return np.array(census_places(size, pattern), np.int64)
 
 
-def prepare(left, right, setup, census_window, threads=None,
-            pattern=DEFAULT_CENSUS_PATTERN):
+def compared(left, right, setup, census_window, threads=None, *, pattern):
     """The arrays the engines compare, and the Setup they run with: the images, or for
     the census cost their census codes compared with SHD."""
     if setup.cost == CENSUS:
@@ -86,6 +84,6 @@ def prepare(left, right, setup, census_window, threads=None,
     return left, right, setup
 
 
-def entries(pixels, cost, census_window, pattern=DEFAULT_CENSUS_PATTERN):
+def entries(pixels, cost, census_window, pattern):
     """The (kernel, variant) entries a match with this cost loads for its codes."""
     return [("census", variant(pixels, census_window, pattern))] if cost == "census" else []

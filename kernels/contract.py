@@ -19,7 +19,6 @@ COSTS = {"sad": SAD, "ssd": SSD, "shd": SHD, "census": CENSUS}
 # Census: each pixel becomes a code with one bit per neighbour of its census window
 # (set where the neighbour is darker than the centre); the cost is the Hamming distance of
 # the codes summed over the matching window: SHD over the census codes.
-DEFAULT_CENSUS_WINDOW = 5
 MAX_CENSUS_BITS = 64
 # Which neighbours of the census window make bits (see census_places):
 #   dense   every one
@@ -27,22 +26,18 @@ MAX_CENSUS_BITS = 64
 #           centre's 8 neighbours: a 9x9 window in 32 bits, so codes of 32-bit lanes,
 #           which the engines compare in about 60% of the time of 64-bit ones
 CENSUS_PATTERNS = ("dense", "sparse")
-DEFAULT_CENSUS_PATTERN = "dense"
 
 # Rules that decide which CSW matches claim their right pixel, and which claims bind
 # (see docs/engines.md, "CSW rules"):
 #   literal  the paper's: claim when m <= tau; every claim blocks later pixels.
 #   unique   claim when m <= tau and the match is distinct (the best cost beats every
-#            candidate at least 2 away from it by `uniqueness` percent); a claim does not
+#            candidate at least 2 away from it by `csw_margin` percent); a claim does not
 #            bind the very next pixel, whose match may share the right pixel at integer
 #            precision where the disparity grows along the row.
 RULE_LITERAL, RULE_UNIQUE = 0, 1
 RULES = {"literal": RULE_LITERAL, "unique": RULE_UNIQUE}
 # How many pixels after the claimant a claim does not bind, per rule.
 RULE_SLACK = {RULE_LITERAL: 0, RULE_UNIQUE: 1}
-# The unique rule's default margin (percent) per cost: SSD costs are squares of SAD-like
-# differences, so 1.12 ** 2 ~ 1.25 asks the same distinctiveness of them.
-DEFAULT_UNIQUENESS = {"sad": 12, "ssd": 25, "shd": 12, "census": 12}
 
 # One invalid-disparity convention everywhere: -1 in integer maps (inf in PFM files,
 # NaN in float maps); where the range reaches below 0, -1 is a disparity, and integer
@@ -87,7 +82,7 @@ class MatchResult:
         ``1 - evaluated / candidates`` is the share of work CSW skipped.
     With ``extras`` (else None), over evaluated candidates only, -1 where none:
     second_cost: int64 (H, W), the least cost at least 2 disparities from the chosen d
-        (for uniqueness and confidence).
+        (for the unique rule's margin and confidence).
     prev_cost, next_cost: int64 (H, W), the costs at d - 1 and d + 1 (for subpixel).
     With ``right_map`` (else None):
     right_disparity: int32 (H, W), for each right pixel its best left match's d over the
@@ -126,7 +121,7 @@ class Setup(NamedTuple):
     csw: bool
     tau: int
     rule: int
-    uniqueness: int  # percent, for RULE_UNIQUE
+    csw_margin: int  # percent, for RULE_UNIQUE
     slack: int  # a claim by pixel x' binds pixel x only when x - x' > slack
     extras: bool  # also compute MatchResult's second/prev/next costs
     right_map: bool  # also return MatchResult's right_disparity
@@ -152,7 +147,7 @@ def dtype_of(name):
 
 
 @functools.cache
-def census_places(census_window, pattern=DEFAULT_CENSUS_PATTERN):
+def census_places(census_window, pattern):
     """The neighbours a census code compares, as their places in the window (row-major,
     0 .. size * size - 1), in bit order: row by row, left to right, the first one the
     code's most significant bit; the centre is never one.  Their number is a multiple
@@ -171,7 +166,7 @@ def census_places(census_window, pattern=DEFAULT_CENSUS_PATTERN):
     return tuple(places)
 
 
-def census_bits(census_window, pattern=DEFAULT_CENSUS_PATTERN):
+def census_bits(census_window, pattern):
     """len(census_places(census_window, pattern)), counted without listing the places
     (a window of 99999 would list 10**10 of them)."""
     h = census_window // 2
@@ -184,7 +179,7 @@ def census_bits(census_window, pattern=DEFAULT_CENSUS_PATTERN):
 
 
 @functools.cache
-def census_dtype(census_window, pattern=DEFAULT_CENSUS_PATTERN):
+def census_dtype(census_window, pattern):
     """The narrowest unsigned type holding a census code of this window and pattern."""
     if pattern not in CENSUS_PATTERNS:
         raise ValueError(f"census pattern must be one of {', '.join(CENSUS_PATTERNS)}, "
@@ -217,37 +212,21 @@ def _as_image(name, image):
 
 
 def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
-             uniqueness=None, slack=None, rows=None, census_window=DEFAULT_CENSUS_WINDOW,
-             census_pattern=DEFAULT_CENSUS_PATTERN, extras=False, right_map=False,
-             lr_check=None):
+             csw_margin=None, slack=None, rows=None, census_window=None,
+             census_pattern=None, extras=False, right_map=False, lr_check=None):
     """Check the inputs once and return ``(left, right, Setup, rows)``; raise ValueError.
 
     left, right: uint8 or uint16 (H, W), equal shapes and dtypes.  rows: int64 (n,).
-    Every message says how to fix the input.
+    The kernels have no defaults of their own: csw_margin is needed for the unique rule,
+    census_window and census_pattern for the census cost (csw.config.params has the
+    defaults).  Every message says how to fix the input.
     """
     left = _as_image("left", left)
     right = _as_image("right", right)
     check_pair(left.shape, left.dtype, right.shape, right.dtype)
     height, width = left.shape
-    if isinstance(window, bool) or int(window) != window:
-        raise ValueError(f"window must be an odd whole number, got {window!r}")
-    window = int(window)
-    if window < 1 or window % 2 == 0:
-        raise ValueError(f"window must be odd and at least 1 (e.g. 9), got {window}")
-    if window > min(height, width):
-        raise ValueError(
-            f"window {window} is larger than the image ({width}x{height}); use a smaller window"
-        )
-    dmin, dmax = int(dmin), int(dmax)
-    if dmin <= -width:
-        raise ValueError(f"dmin ({dmin}) must be greater than minus the image width "
-                         f"({width}); raise dmin")
-    if dmin > dmax:
-        raise ValueError(f"dmin ({dmin}) must not exceed dmax ({dmax})")
-    if dmax >= width:
-        raise ValueError(
-            f"dmax ({dmax}) must be less than the image width ({width}); lower dmax"
-        )
+    window = check_window(window, height, width)
+    dmin, dmax = check_range(dmin, dmax, width)
     if cost not in COSTS:
         raise ValueError(f"cost must be one of {', '.join(COSTS)}, got {cost!r}")
     if rule not in RULES:
@@ -257,11 +236,14 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
     slack = RULE_SLACK[RULES[rule]] if slack is None else int(slack)
     if not 0 <= slack <= 1_000_000:
         raise ValueError(f"slack must be >= 0, got {slack}")
-    uniqueness = resolve_uniqueness(cost, uniqueness)
-    if isinstance(uniqueness, bool) or int(uniqueness) != uniqueness or \
-            not 0 <= uniqueness <= 1000:
-        raise ValueError(f"uniqueness must be a whole percentage from 0 to 1000, got "
-                         f"{uniqueness!r}")
+    if csw_margin is None:
+        if rule == "unique":
+            raise ValueError("the unique rule needs its margin: give csw_margin (percent)")
+        csw_margin = 0  # the literal rule has none
+    if isinstance(csw_margin, bool) or int(csw_margin) != csw_margin or \
+            not 0 <= csw_margin <= 1000:
+        raise ValueError(f"csw_margin must be a whole percentage from 0 to 1000, got "
+                         f"{csw_margin!r}")
     # Costs are integers, so m <= tau is the same test as m <= floor(tau); +inf (no
     # threshold) becomes a bound above every possible cost.
     tau = float(tau)
@@ -277,6 +259,8 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
         if np.any(np.diff(rows) <= 0):
             raise ValueError("rows must be strictly increasing")
     if cost == "census":
+        if census_window is None or census_pattern is None:
+            raise ValueError("the census cost needs census_window and census_pattern")
         census_window = int(census_window)
         if census_window < 3 or census_window % 2 == 0:
             raise ValueError(f"census window must be odd and at least 3, got {census_window}")
@@ -287,8 +271,37 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
         raise ValueError(f"lr_check must be a whole number of pixels >= 0 (or None), got "
                          f"{lr_check!r}")
     setup = Setup(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule],
-                  int(uniqueness), slack, bool(extras), bool(right_map), int(lr_check))
+                  int(csw_margin), slack, bool(extras), bool(right_map), int(lr_check))
     return left, right, setup, rows
+
+
+def check_window(window, height, width):
+    """The window side as an int; ValueError unless odd, >= 1 and within the image."""
+    if isinstance(window, bool) or int(window) != window:
+        raise ValueError(f"window must be an odd whole number, got {window!r}")
+    window = int(window)
+    if window < 1 or window % 2 == 0:
+        raise ValueError(f"window must be odd and at least 1 (e.g. 9), got {window}")
+    if window > min(height, width):
+        raise ValueError(
+            f"window {window} is larger than the image ({width}x{height}); use a smaller window"
+        )
+    return window
+
+
+def check_range(dmin, dmax, width):
+    """(dmin, dmax) as ints; ValueError unless -width < dmin <= dmax < width."""
+    dmin, dmax = int(dmin), int(dmax)
+    if dmin <= -width:
+        raise ValueError(f"dmin ({dmin}) must be greater than minus the image width "
+                         f"({width}); raise dmin")
+    if dmin > dmax:
+        raise ValueError(f"dmin ({dmin}) must not exceed dmax ({dmax})")
+    if dmax >= width:
+        raise ValueError(
+            f"dmax ({dmax}) must be less than the image width ({width}); lower dmax"
+        )
+    return dmin, dmax
 
 
 def check_pair(left_shape, left_dtype, right_shape, right_dtype):
@@ -304,10 +317,6 @@ def check_pair(left_shape, left_dtype, right_shape, right_dtype):
             "the same bit depth"
         )
 
-
-def resolve_uniqueness(cost, uniqueness):
-    """The unique rule's margin in percent: as given, or the cost's default."""
-    return DEFAULT_UNIQUENESS[cost] if uniqueness is None else uniqueness
 
 
 @functools.lru_cache(maxsize=256)  # per image size and range: a batch repeats them

@@ -29,8 +29,6 @@ from . import native, runtime
 from .census import census_transform
 from .contract import (
     CENSUS,
-    DEFAULT_CENSUS_PATTERN,
-    DEFAULT_CENSUS_WINDOW,
     SAD,
     SHD,
     SSD,
@@ -95,8 +93,8 @@ def stripe_bounds(height, window, threads, rows):
 
 
 def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
-               rule="literal", uniqueness=None, slack=None, rows=None, threads=None,
-               census_window=DEFAULT_CENSUS_WINDOW, census_pattern=DEFAULT_CENSUS_PATTERN,
+               rule="literal", csw_margin=None, slack=None, rows=None, threads=None,
+               census_window=None, census_pattern=None,
                extras=False, right_map=False, lr_check=None, workspace=None):
     """Match a rectified pair with running sums (same contract as match_window).
 
@@ -114,7 +112,7 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     """
     left, right, s, rows = validate(left, right, window=window, dmin=dmin, dmax=dmax,
                                     cost=cost, csw=csw, tau=tau, rule=rule,
-                                    uniqueness=uniqueness, slack=slack, rows=rows,
+                                    csw_margin=csw_margin, slack=slack, rows=rows,
                                     census_window=census_window,
                                     census_pattern=census_pattern, extras=extras,
                                     right_map=right_map, lr_check=lr_check)
@@ -168,7 +166,7 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
         y0, y1 = stripes[i]
         return run([left_p, right_rev, *scratch, disp, min_cost, *maps, lr_valid, evaluated,
                     stop],
-                   [s.window, s.dmin, s.dmax, s.tau, s.rule, s.uniqueness, s.slack, y0, y1,
+                   [s.window, s.dmin, s.dmax, s.tau, s.rule, s.csw_margin, s.slack, y0, y1,
                     never, s.right_map, s.lr_check])
 
     runtime.run_stripes(stripe, len(stripes), n_threads, work)

@@ -106,11 +106,10 @@ def fill_background(disp, threads=None):
     return out
 
 
-def entries(stages):
-    """The (kernel, variant) entries the 2-D filters of ``stages`` load (the left-right
-    check is the engines', see kernels.entries)."""
-    kinds = [kind for kind, used in (
-        ("speckle", stages.get("speckle_size", 0) > 0),
-        ("median", bool(stages.get("median", 0))),
-        ("fill", stages.get("fill", "none") == "background")) if used]
+def entries(speckle, median, fill):
+    """The (kernel, variant) entries the 2-D filters load: speckle removal, the median,
+    the background fill, each where True (the left-right check is the engines', see
+    kernels.entries)."""
+    kinds = [kind for kind, used in (("speckle", speckle), ("median", median),
+                                     ("fill", fill)) if used]
     return [("filters", (kind,)) for kind in kinds]

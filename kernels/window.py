@@ -13,10 +13,8 @@ Layers (as in stumpy's stump.py):
 import numpy as np
 
 from . import native, runtime
-from .census import prepare
+from .census import compared
 from .contract import (
-    DEFAULT_CENSUS_PATTERN,
-    DEFAULT_CENSUS_WINDOW,
     SAD,
     SSD,
     MatchResult,
@@ -71,9 +69,9 @@ def entries(cost, pixels, window, csw, right_map, extras, dmin=0):
 
 
 def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
-                 rule="literal", uniqueness=None, slack=None, rows=None, threads=None,
-                 census_window=DEFAULT_CENSUS_WINDOW,
-                 census_pattern=DEFAULT_CENSUS_PATTERN, extras=False, right_map=False,
+                 rule="literal", csw_margin=None, slack=None, rows=None, threads=None,
+                 census_window=None,
+                 census_pattern=None, extras=False, right_map=False,
                  lr_check=None, workspace=None):
     """Match a rectified pair with full window sums (the contract: docs/engines.md).
 
@@ -81,7 +79,7 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     cost: "sad", "ssd", "shd" or "census" (census codes of a census_window x
         census_window window and a census_pattern, "dense" or "sparse", compared with
         SHD; see kernels/census.py).
-    rule, uniqueness: the CSW rule ("literal" or "unique") and the unique rule's margin
+    rule, csw_margin: the CSW rule ("literal" or "unique") and the unique rule's margin
         in percent (see docs/engines.md, "CSW rules").  slack: override the rule's binding
         (a claim by x' blocks x only when x - x' > slack); for studies of the rule.
     rows: optional int64 (n,) ascending row indices; then the maps are (n, W).
@@ -96,12 +94,13 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     """
     left, right, s, rows = validate(left, right, window=window, dmin=dmin, dmax=dmax,
                                     cost=cost, csw=csw, tau=tau, rule=rule,
-                                    uniqueness=uniqueness, slack=slack, rows=rows,
+                                    csw_margin=csw_margin, slack=slack, rows=rows,
                                     census_window=census_window,
                                     census_pattern=census_pattern, extras=extras,
                                     right_map=right_map, lr_check=lr_check)
     n_threads = runtime.thread_count(threads)
-    left, right, s = prepare(left, right, s, census_window, threads, census_pattern)
+    left, right, s = compared(left, right, s, census_window, threads,
+                              pattern=census_pattern)
     h = s.window // 2
     dtype = padded_type(left.dtype)
     left_p, right_p = pad_edge(left, h, dtype), pad_edge(right, h, dtype)
@@ -124,7 +123,7 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
         scratch = [np.empty(width, np.int32), np.empty(ndisp, np.int64),
                    np.empty(width, np.int64)]
         return run([left_p, right_p, rows, *scratch, disp, min_cost, *maps, evaluated, stop],
-                   [s.window, s.dmin, s.dmax, s.tau, s.rule, s.uniqueness, s.slack,
+                   [s.window, s.dmin, s.dmax, s.tau, s.rule, s.csw_margin, s.slack,
                     edges[i], edges[i + 1]])
 
     runtime.run_stripes(stripe, count, n_threads, work)

@@ -212,7 +212,7 @@ The literal rule's loss of accuracy is examined in
 [`csw-tradeoff.md`](csw-tradeoff.md), which also derives the `unique` rule
 (`--csw-rule unique`: only distinct matches claim, and a claim does not bind the next
 pixel). Here it is timed the same way as TABLE II, with the window engine, SAD 9×9,
-literal rows at the auto τ, unique rows with no τ and uniqueness 12%:
+literal rows at the auto τ, unique rows with no τ and margin 12%:
 
 `{cmd_unique}` (and `-d venus`, `-d cones`, `-d teddy` with their registry ranges)
 

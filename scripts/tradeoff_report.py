@@ -93,7 +93,7 @@ def mechanism(name, tau_factor=1.0):
 ABLATION = [
     ("literal, auto τ (the paper's rule)", dict(rule="literal"), "auto"),
     ("literal, auto τ, claims skip the next pixel", dict(rule="literal", slack=1), "auto"),
-    ("distinct claims only (uniqueness 12%), literal binding", dict(rule="unique", slack=0),
+    ("distinct claims only (margin 12%), literal binding", dict(rule="unique", slack=0),
      "none"),
     ("unique: distinct claims + claims skip the next pixel", dict(rule="unique"), "none"),
 ]
@@ -184,13 +184,13 @@ of the plain min-cost histogram); none is no cost threshold.
 ## Summary
 
 The literal rule (the paper's) buys its savings with accuracy everywhere but on the
-synthetic scene. The **unique** rule (`--csw-rule unique`, uniqueness 12%, no τ) keeps
+synthetic scene. The **unique** rule (`--csw-rule unique`, margin 12%, no τ) keeps
 plain matching's bad-1 within the targets on Tsukuba, Cones, Teddy and Venus while still
 skipping 30–45% of the candidate costs:
 
 """, "\n".join(summary), """
 
-**Recommendation:** `csw match --csw --csw-rule unique` (τ none, uniqueness 12; 25 for
+**Recommendation:** `csw match --csw --csw-rule unique` (τ none, margin 12; 25 for
 SSD). Where a cost threshold is wanted anyway, `--tau` at about 3× the auto τ changes
 little. The literal rule stays the default, for reproducing the paper; with it, the
 auto τ (`--tau auto`, shown in every table below as 1x) is the paper's rule, and it

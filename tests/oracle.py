@@ -60,7 +60,7 @@ def window_costs(left, right, y, x, ds, window, cost):
 
 
 def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=None,
-                 rule="literal", uniqueness=None, slack=None, census_window=5, extras=False,
+                 rule="literal", csw_margin=None, slack=None, census_window=5, extras=False,
                  census_pattern="dense"):
     """Reference (disparity int32 (n, W), min_cost int64 (n, W), evaluated int), and with
     ``extras`` a fourth item: a dict of second_cost, prev_cost, next_cost (int64, the
@@ -74,12 +74,12 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
 
     CSW rules: "literal" claims the right pixel when m <= tau, and a claim blocks every
     later pixel. "unique" claims only when also some evaluated candidate at least 2 away
-    from the best exists and every such one costs more than best * (1 + uniqueness/100);
-    its claims do not block the pixel right after the claimant. uniqueness defaults to
+    from the best exists and every such one costs more than best * (1 + csw_margin/100);
+    its claims do not block the pixel right after the claimant. the margin defaults to
     12 (SAD, SHD) or 25 (SSD).
     """
-    if uniqueness is None:
-        uniqueness = 25 if cost == "ssd" else 12
+    if csw_margin is None:
+        csw_margin = 25 if cost == "ssd" else 12
     if cost == "census":
         left = census(left, census_window, census_pattern)
         right = census(right, census_window, census_pattern)
@@ -120,7 +120,7 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
                 continue
             if rule == "unique":
                 others = [c for d, c in zip(ds, costs, strict=True) if abs(d - d_best) >= 2]
-                if not others or min(others) * 100 <= best * (100 + uniqueness):
+                if not others or min(others) * 100 <= best * (100 + csw_margin):
                     continue
             claimant[x - d_best] = x
     if extras:

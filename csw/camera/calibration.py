@@ -340,19 +340,6 @@ def resolve(calib=None, left=None):
     return read_calibration(found) if found is not None else None
 
 
-def with_range(calibration, options, width):
-    """``options`` with the calibration's ``ndisp`` as the range when they give no dmax,
-    and where the range comes from: "auto", "given", "ndisp of <file>" or "default".
-    width: the image's, which the range must stay below."""
-    if options.get("dmax") == "auto":
-        return options, "auto"
-    if "dmax" in options:
-        return options, "given"
-    if calibration is not None and calibration.ndisp:
-        return (dict(options, dmax=min(calibration.ndisp - 1, width - 1)),
-                f"ndisp of {calibration.source}")
-    return options, "default"
-
 
 def beside(image):
     """The calib.txt in the folder of ``image`` (Middlebury 2014's layout), or None."""

@@ -10,14 +10,11 @@ ValueError whose message says how to fix them.
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, replace
 
 from ..kernels.contract import (
     CENSUS_PATTERNS,
     COSTS,
-    DEFAULT_CENSUS_PATTERN,
-    DEFAULT_CENSUS_WINDOW,
-    DEFAULT_UNIQUENESS,
     ENGINE_NAMES,
     RULES,
 )
@@ -141,10 +138,16 @@ def _number(name, value):
     return number
 
 
+# The census without a preset's: a dense 5x5 window (24 bits).
+DEFAULT_CENSUS_WINDOW, DEFAULT_CENSUS_PATTERN = 5, "dense"
+# The unique rule's margin in percent, by cost, where none is given: chosen on the
+# registered datasets (reports/csw-tradeoff.md); SSD's squared costs need a wider one.
+DEFAULT_CSW_MARGIN = {"sad": 12, "ssd": 25, "shd": 12, "census": 12}
+
 # What the help says of the unique rule's default margin: "12; 25 for SSD".
-UNIQUENESS_TEXT = "; ".join([str(DEFAULT_UNIQUENESS["sad"])] + [
-    f"{v} for {k.upper()}" for k, v in DEFAULT_UNIQUENESS.items()
-    if v != DEFAULT_UNIQUENESS["sad"]])
+CSW_MARGIN_TEXT = "; ".join([str(DEFAULT_CSW_MARGIN["sad"])] + [
+    f"{v} for {k.upper()}" for k, v in DEFAULT_CSW_MARGIN.items()
+    if v != DEFAULT_CSW_MARGIN["sad"]])
 
 RULE_HELP = ("literal: the paper's rule, a match with m <= tau claims its right pixel for "
              "good. unique: only distinct matches claim, and a claim does not bind the next "
@@ -177,7 +180,7 @@ OPTIONS = {o.name: o for o in [
                                             "rule",
            help="CSW threshold on the minimum cost: a number, 'auto' for the paper's rule "
                 "(width of the first of 10 histogram bins), or 'none'. Needs --csw."),
-    Option("uniqueness", "auto_int", None, low=0, high=1000, default_text=UNIQUENESS_TEXT,
+    Option("csw_margin", "auto_int", None, low=0, high=1000, default_text=CSW_MARGIN_TEXT,
            help="The unique rule's margin in percent: the best cost must beat every "
                 "candidate 2 or more disparities away by this much."),
     Option("threads", "auto_int", None, low=1, default_text="all cores",
@@ -215,7 +218,8 @@ OPTIONS = {o.name: o for o in [
 ]}
 
 # The pipeline's stages with their "off" values: the paper's contract.
-OFF = {name: o.default for name, o in OPTIONS.items() if o.stage}
+STAGE_NAMES = tuple(name for name, o in OPTIONS.items() if o.stage)
+OFF = {name: OPTIONS[name].default for name in STAGE_NAMES}
 DEFAULTS = {name: o.default for name, o in OPTIONS.items()}
 
 PRESETS = {
@@ -246,10 +250,103 @@ def check(name, value):
         raise OptionError(name, str(exc)) from None
 
 
+@dataclass(frozen=True)
+class Stages:
+    """The pipeline's stages around the kernels (csw.matching.pipeline), as resolved: each
+    field is the option of that name (OPTIONS has its help); all off is the paper's
+    contract (:data:`OFF_STAGES`)."""
+
+    prefilter: str
+    prefilter_cap: int
+    census_window: int
+    census_pattern: str
+    lr_check: int | None
+    uniqueness_ratio: int | None
+    texture_threshold: int | None
+    subpixel: str
+    speckle_size: int
+    speckle_range: float
+    median: int
+    fill: str
+
+    def changed(self):
+        """The stages that are not off: name -> value."""
+        return {k: v for k, v in asdict(self).items() if v != OFF[k]}
+
+    def cost_shaping(self):
+        """Only the stages that shape the costs (the pre-filter, the census), the rest
+        off: what tau auto's sample of plain matching runs with, since the checks and
+        the filters don't change the minimum costs."""
+        return replace(OFF_STAGES, prefilter=self.prefilter, prefilter_cap=self.prefilter_cap,
+                       census_window=self.census_window, census_pattern=self.census_pattern)
+
+    @property
+    def needs_extras(self):
+        """Whether the kernels must return the second-best and neighbour costs."""
+        return self.uniqueness_ratio is not None or self.subpixel != "none"
+
+
+OFF_STAGES = Stages(**OFF)  # the paper's contract: no stage
+
+
+@dataclass(frozen=True)
+class Config:
+    """Every matching option, resolved once (:func:`resolve`) at the edge (the CLI,
+    ``csw.match``, ``csw.Matcher``): what everything below takes.  Each field is the
+    option of that name (OPTIONS has its help), except:
+
+    csw_margin: the unique rule's margin, its per-cost default applied.
+    stages: the pipeline's stages (:class:`Stages`).
+    given: the names the caller gave (the rest came from the preset or the defaults).
+    range_source: where dmin and dmax came from (csw.matching.disparity_range.decide):
+        "given", "default", "ndisp of FILE", "auto", or "auto (from the first pair)".
+    """
+
+    preset: str
+    engine: str
+    cost: str
+    window: int
+    dmin: int | str  # a number, or "auto" until the range is decided
+    dmax: int | str
+    csw: bool
+    csw_rule: str
+    tau: object  # a number >= 0, "auto", "none", or None (the rule's default)
+    csw_margin: int
+    threads: int | None
+    stages: Stages
+    given: frozenset = frozenset()
+    range_source: str = "default"
+
+    def replace(self, **changes):
+        """A copy with ``changes`` (fields, or stage names)."""
+        staged = {k: changes.pop(k) for k in list(changes) if k in OFF}
+        if staged:
+            changes["stages"] = replace(self.stages, **staged)
+        return replace(self, **changes)
+
+    @property
+    def range_known(self):
+        return "auto" not in (self.dmin, self.dmax)
+
+    def as_dict(self):
+        """Every option by name, flat (the stages beside the others), and range_source:
+        what results report as their settings."""
+        stages = asdict(self.stages)
+        return {**{name: stages[name] if name in stages else getattr(self, name)
+                   for name in OPTIONS}, "range_source": self.range_source}
+
+    def kernel_args(self):
+        """The kernels' keyword arguments (csw.kernels.match) but for CSW and tau, which
+        the match resolves."""
+        return dict(engine=self.engine, window=self.window, dmin=self.dmin, dmax=self.dmax,
+                    cost=self.cost, rule=self.csw_rule, csw_margin=self.csw_margin,
+                    threads=self.threads)
+
+
 def resolve(**given):
-    """The full option set: ``given`` over its preset over the defaults, every value
+    """The :class:`Config` of ``given``: over its preset over the defaults, every value
     checked and normalised.  TypeError for an unknown name; ValueError for a bad value, a
-    stage added to the paper preset, or a tau given without CSW."""
+    stage added to the paper preset, or an option that does nothing without CSW."""
     unknown = set(given) - set(OPTIONS)
     if unknown:
         raise TypeError(f"unknown option(s) {', '.join(sorted(unknown))}; "
@@ -262,39 +359,28 @@ def resolve(**given):
             raise ValueError(f"the paper preset is the paper's raw method; drop "
                              f"{', '.join(added)} (or use another preset)")
     opts = {**DEFAULTS, **PRESETS[preset], **given}
-    check_tau_use(opts["csw"], opts["tau"])
-    return opts
+    check_csw_use(opts["csw"], given)
+    opts["csw_margin"] = csw_margin_for(opts["cost"], opts["csw_margin"])
+    stages = Stages(**{k: opts.pop(k) for k in OFF})
+    range_source = "given" if {"dmin", "dmax"} & set(given) else "default"
+    return Config(**opts, stages=stages, given=frozenset(given), range_source=range_source)
 
 
-def check_tau_use(csw, tau):
-    """Refuse a tau that would do nothing: CSW is off."""
-    if not csw and tau is not None:
-        raise OptionError("tau", "tau applies only with CSW on; add csw=True (--csw) or "
-                                 "drop tau")
+def csw_margin_for(cost, given=None):
+    """The unique rule's margin: as given, or the cost's default."""
+    return DEFAULT_CSW_MARGIN[cost] if given is None else given
 
 
-def stages(opts):
-    """The pipeline's stage options out of a full option set."""
-    return {k: opts[k] for k in OFF}
-
-
-def cost_stages(stages):
-    """Only the stages that shape the costs (the pre-filter, the census), the rest
-    off: what tau auto's sample of plain matching runs with, since the checks and the
-    filters don't change the minimum costs."""
-    return dict(OFF, **{k: stages[k] for k in ("prefilter", "prefilter_cap",
-                                               "census_window", "census_pattern")})
-
-
-def kernel_args(opts):
-    """The kernels' keyword arguments for a resolved option set."""
-    return dict(engine=opts["engine"], window=opts["window"], dmin=opts["dmin"],
-                dmax=opts["dmax"], cost=opts["cost"], rule=opts["csw_rule"],
-                uniqueness=opts["uniqueness"], threads=opts["threads"])
+def check_csw_use(csw, given):
+    """Refuse an option that would do nothing: tau or the margin without CSW."""
+    for name in ("tau", "csw_margin"):
+        if not csw and given.get(name) is not None:
+            raise OptionError(name, f"{name} applies only with CSW on; add csw=True (--csw) "
+                                    f"or drop {name}")
 
 
 def experiment_stages(**given):
-    """The stage options of an experiment (bench, sweep): ``preset`` (default: the
-    experiments' raw) and stage options over it, checked as for :func:`resolve`."""
+    """The stages of an experiment (bench, sweep): ``preset`` (default: the experiments'
+    raw) and stage options over it, checked as for :func:`resolve`."""
     given.setdefault("preset", EXPERIMENT_PRESET)
-    return stages(resolve(**given))
+    return resolve(**given).stages

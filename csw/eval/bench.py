@@ -10,7 +10,14 @@ import time
 
 from .. import kernels
 from ..config import paper, params
-from ..config.params import BENCH_REPEAT, BENCH_THREADS, EXPERIMENT_PRESET, OFF, PRESETS
+from ..config.params import (
+    BENCH_REPEAT,
+    BENCH_THREADS,
+    EXPERIMENT_PRESET,
+    OFF_STAGES,
+    PRESETS,
+    csw_margin_for,
+)
 from ..config.tau import resolve_tau
 from ..data.datasets import NOT_VERIFIED
 from ..matching.pipeline import run as run_pipeline
@@ -19,7 +26,7 @@ from .scoring import THRESHOLDS, filled_bad, score
 RULE_LABELS = {None: "", "literal": " + CSW", "unique": " + CSW-unique"}
 
 
-def time_variants(left, right, settings, variants, repeat, progress, stages=OFF):
+def time_variants(left, right, settings, variants, repeat, progress, stages=OFF_STAGES):
     """Median seconds of each variant (a dict of kernel options) through the pipeline's
     stages, interleaved so that drifts in machine load hit all alike."""
     times = [[] for _ in variants]
@@ -33,8 +40,8 @@ def time_variants(left, right, settings, variants, repeat, progress, stages=OFF)
 
 
 def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), tau=None,
-               unique_tau=None, uniqueness=None, repeat=BENCH_REPEAT, threads=BENCH_THREADS,
-               progress=None, stages=OFF):
+               unique_tau=None, csw_margin=None, repeat=BENCH_REPEAT, threads=BENCH_THREADS,
+               progress=None, stages=OFF_STAGES):
     """TABLE II rows for one pair, cost and engine: plain, then CSW with each rule.
 
     pair: a :class:`csw.datasets.Pair`.  tau: the literal rule's tau (number, "auto",
@@ -60,14 +67,15 @@ def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), ta
         given = tau if rule == "literal" else unique_tau
         taus.append(resolve_tau(given, rule, plain_min_cost=lambda: plain.min_cost,
                                 paper_value=paper_taus.get(cost)))
-        variants.append(dict(csw=True, tau=taus[-1][0], rule=rule, uniqueness=uniqueness))
+        variants.append(dict(csw=True, tau=taus[-1][0], rule=rule,
+                             csw_margin=csw_margin_for(cost, csw_margin)))
     runs = [(plain_map, plain)] + [run_pipeline(pair.left, pair.right, dict(v, **settings),
                                                 stages)[::2] for v in variants[1:]]
     seconds = time_variants(pair.left, pair.right, settings, variants, repeat, report, stages)
 
     height, width = pair.left.shape
     rows = []
-    staged = sorted(k for k in OFF if stages[k] != OFF[k])
+    staged = stages.changed()
     for (disp, result), variant, (tau_value, tau_source), secs in zip(runs, variants, taus,
                                                                       seconds, strict=True):
         is_csw = variant["csw"]
@@ -85,12 +93,11 @@ def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), ta
             "rule": rule,
             "tau": tau_value,
             "tau_source": tau_source,
-            "uniqueness": (kernels.contract.resolve_uniqueness(cost, uniqueness)
-                           if rule == "unique" else None),
+            "csw_margin": csw_margin_for(cost, csw_margin) if rule == "unique" else None,
             "window": window,
             "dmin": dmin,
             "dmax": dmax,
-            "stages": {k: stages[k] for k in staged},
+            "stages": staged,
             "error_rate": metrics["all"]["bad"][1.0],
             "bad": {f"{t:g}": metrics["all"]["bad"][t] for t in THRESHOLDS},
             "density": metrics["all"]["density"],
@@ -130,7 +137,7 @@ def paper_costs(pair):
 
 
 def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=None,
-              unique_tau=None, uniqueness=None, window=paper.WINDOW, dmin=0, dmax=None,
+              unique_tau=None, csw_margin=None, window=paper.WINDOW, dmin=0, dmax=None,
               repeat=BENCH_REPEAT, threads=BENCH_THREADS, progress=None, stages=None):
     """What ``csw bench`` prints: bench rows for every pair, then, when pairs from folders
     (not the registry) number more than one, their totals.
@@ -146,9 +153,9 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
 
     chosen = PAPER_PRESET if preset == "paper" else PLAIN_PRESET
     named = params.resolve(preset=preset or EXPERIMENT_PRESET, **(stages or {}))
-    stage_values = params.stages(named)
+    stage_values = named.stages
     if costs is None and preset not in (None, "paper", "raw"):
-        costs = [named["cost"]]
+        costs = [named.cost]
     engines = engines or chosen["engines"]
     rules = rules or chosen["rules"]
     tau = chosen["tau"] if tau is None else tau
@@ -164,13 +171,13 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
             for engine in engines:
                 key = (engine, cost, pair.left.dtype.str)
                 if key not in compiled:
-                    args = dict(engine=engine, cost=cost, window=window)
+                    args = dict(engine=engine, cost=cost, window=window, dmin=dmin)
                     compiled[key] = kernels.native.ensure(
                         entries(dict(args, csw=False), stage_values, pair.left.dtype) +
                         entries(dict(args, csw=True), stage_values, pair.left.dtype))
                 new = bench_rows(pair, cost=cost, window=window, dmin=dmin, dmax=top,
                                  engine=engine, rules=rules, tau=tau, unique_tau=unique_tau,
-                                 uniqueness=uniqueness, repeat=repeat, threads=threads,
+                                 csw_margin=csw_margin, repeat=repeat, threads=threads,
                                  progress=progress, stages=stage_values)
                 rows += new
                 if pair.dataset is None:
@@ -181,7 +188,7 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
         rows += total_rows(folder_rows)
     text = caption(registry, preset == "paper", window, threads, repeat,
                    sum(compiled.values()))
-    staged = {k: v for k, v in stage_values.items() if v != OFF[k]}
+    staged = stage_values.changed()
     if staged:
         text += ("\nPipeline stages around every row: "
                  + ", ".join(f"{k} {v}" for k, v in staged.items()) + ".")

@@ -17,16 +17,16 @@ def min_cost_histogram(left, right, bins=10, **options):
     from the plain run's full map).  Returns (rows, the rule's tau, m int64 (H, W), the
     resolved options).
     """
-    opts = params.resolve(**{"preset": params.EXPERIMENT_PRESET, **options})
-    stages, args = params.stages(opts), params.kernel_args(opts)
+    config = params.resolve(**{"preset": params.EXPERIMENT_PRESET, **options})
+    stages, args = config.stages, config.kernel_args()
     plain = run_pipeline(left, right, dict(args, csw=False, tau=-1), stages)[2]
     rule_tau = paper_tau(plain.min_cost)
     min_cost = plain.min_cost
-    if opts["csw"]:
-        tau, _ = resolve_tau(opts["tau"], opts["csw_rule"],
+    if config.csw:
+        tau, _ = resolve_tau(config.tau, config.csw_rule,
                              plain_min_cost=lambda: plain.min_cost)
         min_cost = run_pipeline(left, right, dict(args, csw=True, tau=tau), stages)[2].min_cost
-    return histogram_rows(min_cost, bins), rule_tau, min_cost, opts
+    return histogram_rows(min_cost, bins), rule_tau, min_cost, config.as_dict()
 
 
 def histogram_rows(min_cost, bins=10):

@@ -37,7 +37,7 @@ def histogram(path, min_cost, tau, title):
 
 def tradeoff(path, rows, title):
     """Work saved (x) against bad-1 (y) from csw.sweep rows: one curve per rule and
-    uniqueness, the plain row as a dashed line."""
+    margin, the plain row as a dashed line."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     plain = rows[0]["error_rate"]

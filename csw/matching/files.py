@@ -27,6 +27,7 @@ from ..io.formats import (
 from ..io.images import ImageError, read_colour, read_image
 from ..io.sources import open_source
 from ..scale.tiled import match_tiled, too_big_for_whole
+from . import disparity_range
 from .matcher import Matcher
 
 # What each companion output may be, by role (csw.io.formats.suffixes).
@@ -44,7 +45,7 @@ BYTES_PER_PIXEL = {"output": 4, "confidence": 4, "preview": 3, "cost_map": 4, "d
 def match_files(left, right, output, *, confidence=None, preview=None, cost_map=None,
                 calib=None, depth=None, cloud=None, depth_preview=None, max_depth=None,
                 units=None, memory_limit=None, client=None, progress=False,
-                keep_scratch=False, **options):
+                keep_scratch=False, config=None, **options):
     """Match the pair in files ``left`` and ``right`` and write the map to ``output``.
 
     Parameters
@@ -77,7 +78,8 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
         Keep this thread's scratch for a next match (a batch), rather than give it back
         before the outputs are written (one pair: a lower peak).
     **options
-        Matching options, as for :func:`csw.match`.
+        Matching options, as for :func:`csw.match`; or ``config``, a
+        csw.config.params.Config resolved already (a batch resolves once for all pairs).
 
     Every output is checked before any work, and all of them are written together (all
     or none).  Returns the :class:`csw.Result` of a whole-image match or the
@@ -91,19 +93,19 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     csw.ImageError
         An input that can't be read (its ``option`` names it: "left" or "right").
     """
-    opts = resolve(**options)  # first, and once: a bad option fails before any file is read
+    if config is not None and options:
+        raise TypeError("give match_files its options or a resolved config, not both")
+    # First, and once: a bad option fails before any file is read.
+    config = resolve(**options) if config is None else config
     calibration = calib_module.resolve(calib, left)
     try:
         shape = open_source(left, "left", probe=False, striped=memory_limit is not None).shape
     except ImageError as exc:
         exc.option = "left"
         raise
-    width = shape[1]
     if calibration is not None:
         calibration.check_size(shape)
-    ranged, range_note = calib_module.with_range(calibration, options, width)
-    if ranged is not options:  # the calibration's ndisp
-        opts = dict(opts, dmax=ranged["dmax"])
+    config = disparity_range.decide(config, shape[1], calibration)
     outputs = {"output": output, "confidence": confidence, "preview": preview,
                "cost_map": cost_map, "depth": depth, "cloud": cloud,
                "depth_preview": depth_preview}
@@ -111,7 +113,7 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
                    "calib": calib if isinstance(calib, (str, Path)) else None}, outputs)
     three_d = [name for name in ("depth", "cloud", "depth_preview") if outputs[name]]
     check_max_depth(max_depth)
-    striped = _use_stripes(left, right, output, confidence, memory_limit, client, opts)
+    striped = _use_stripes(left, right, output, confidence, memory_limit, client, config)
     safety.check_space((path, shape[0] * shape[1] * BYTES_PER_PIXEL[name]
                         + (8 * shape[0] * shape[1] if striped and name == "output" else 0))
                        for name, path in outputs.items() if path is not None)
@@ -120,7 +122,7 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
                                    "calibration: give one (a calib.txt, KITTI calib, "
                                    "OpenCV Q, or the focal length and baseline)")
     try:
-        check_range(output, opts["dmax"], opts["dmin"])
+        check_range(output, config.dmax, config.dmin)
     except ValueError as exc:
         raise OptionError("dmax", str(exc)) from None
     if striped:
@@ -131,10 +133,10 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
                                         "limit, a cluster, .tif/.zarr)")
         result = match_tiled(left, right, output, confidence=confidence, preview=preview,
                              memory_limit=memory_limit, client=client, progress=progress,
-                             config=opts)
-        return _noted(result, range_note, calibration)
+                             config=config)
+        return _noted(result, calibration)
     images = [_read(path, name) for name, path in (("left", left), ("right", right))]
-    result = Matcher(pixels=None, config=opts).match(*images, confidence is not None)
+    result = Matcher(pixels=None, config=config).match(*images, confidence is not None)
     # One pair: its outputs are written next, and scratch kept for a next match would
     # only raise this process's peak memory (a batch keeps it: csw.scale.batch).
     if not keep_scratch:
@@ -154,13 +156,11 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
         writers += three_d_writers(disp, calibration, depth, cloud, depth_preview, colours,
                                    max_depth, units)
     atomic_write_all(writers)
-    return _noted(result, range_note, calibration)
+    return _noted(result, calibration)
 
 
-def _noted(result, range_note, calibration):
-    """The result, its settings saying where the range and the calibration came from."""
-    if result.settings.get("range_source") != "auto":
-        result.settings["range_source"] = range_note
+def _noted(result, calibration):
+    """The result, its settings saying which calibration the pair had."""
     result.settings["calibration"] = calibration.describe() if calibration else None
     return result
 
@@ -173,7 +173,7 @@ def _read(path, name):
         raise
 
 
-def _use_stripes(left, right, output, confidence, memory_limit, client, opts):
+def _use_stripes(left, right, output, confidence, memory_limit, client, config):
     """Asked for (a memory limit, a cluster), needed by a format only stripes read or
     write, or a pair whose whole-image match would not fit the default memory limit."""
     if memory_limit is not None or client is not None:
@@ -185,7 +185,7 @@ def _use_stripes(left, right, output, confidence, memory_limit, client, opts):
     if any(Path(p).suffix.lower() not in suffixes("decoded") for p in (left, right)):
         return True
     try:
-        return too_big_for_whole(left, opts)
+        return too_big_for_whole(left, config)
     except ImageError as exc:
         exc.option = "left"
         raise

@@ -13,9 +13,10 @@ import numpy as np
 from .. import kernels
 from ..config.params import resolve
 from ..io.images import read_image, to_gray
+from .disparity_range import shrink
 from .pipeline import match_rows
 from .pipeline import run as run_pipeline
-from .setup import prepare
+from .setup import load_kernels, set_up
 
 
 @dataclass
@@ -30,8 +31,9 @@ class Result:
     min_cost:  int64 (H, W), the minimum cost m at the chosen d, -1 where no candidate.
     evaluated: candidates (pixel, d) whose cost was evaluated.
     candidates: candidates plain matching evaluates, so ``work_saved`` is CSW's share.
-    settings: every option as used, with ``tau`` resolved to a number (-1 when CSW is
-        off) and ``tau_source`` saying where it came from.
+    settings: every option as used (csw.config.params.Config.as_dict), the range
+        decided and ``range_source`` saying where it came from, ``tau`` resolved to a
+        number (-1 when CSW is off) and ``tau_source`` saying where it came from.
     seconds: the match itself; compile_seconds: JIT compile or cache load before it.
     """
 
@@ -102,7 +104,7 @@ def match(left, right, want_confidence=False, **options):
     csw_rule : {"literal", "unique"}
     tau : float, "auto" or "none", optional
         CSW's cost threshold; default: auto for the literal rule, none for the unique rule.
-    uniqueness : int, optional
+    csw_margin : int, optional
         The unique rule's margin in percent (default 12; 25 for SSD).
     threads : int, optional
         Threads (default: all cores).
@@ -152,48 +154,42 @@ class Matcher:
     def __init__(self, pixels=np.uint8, config=None, **options):
         if config is not None and options:
             raise TypeError("give a Matcher its options or a resolved config, not both")
-        # TypeError / ValueError now.  config: an option set csw.config.params.resolve made
+        # TypeError / ValueError now.  config: a csw.config.params.Config resolved
         # already (csw's own callers, which resolve before they read any file).
-        self.options = resolve(**options) if config is None else config
-        self._found_range = None
-        if pixels is not None and "auto" not in (self.options["dmin"], self.options["dmax"]):
-            from ..config import params
-            from .setup import load_kernels
-
-            load_kernels(self.options, params.stages(self.options), np.dtype(pixels))
+        self.config = resolve(**options) if config is None else config
+        self._found = None  # the config with the range found on the first pair
+        if pixels is not None and self.config.range_known:
+            load_kernels(self.config, np.dtype(pixels))
 
     def match(self, left, right, want_confidence=False):
         """Match a rectified pair (paths or arrays, as for :func:`csw.match`); returns a
         :class:`Result`."""
-        opts = self.options
-        if self._found_range is not None:
-            opts = dict(opts, dmin=self._found_range[0], dmax=self._found_range[1],
-                        range_source="auto (from the first pair)")
-        result = _match(opts, left, right, want_confidence)
-        if self._found_range is None and "auto" in (opts["dmin"], opts["dmax"]):
-            self._found_range = (result.settings["dmin"], result.settings["dmax"])
+        config = self._found or self.config
+        result = _match(config, left, right, want_confidence)
+        if self._found is None and not config.range_known:
+            s = result.settings
+            self._found = config.replace(dmin=s["dmin"], dmax=s["dmax"],
+                                         range_source="auto (from the first pair)")
         return result
 
 
-def _match(opts, left, right, want_confidence):
-    """One pair with resolved options ``opts``."""
+def _match(config, left, right, want_confidence):
+    """One pair with a resolved ``config``."""
     left, right = as_gray(left, "left"), as_gray(right, "right")
 
     def sample_min_cost(args, stages, rows):
         return match_rows(left, right, dict(args, rows=rows), stages)[2].min_cost
 
     def shrunk(f):
-        from .autorange import shrink
-
         return shrink(left, f), shrink(right, f)
 
-    ready = prepare(opts, left.shape, left.dtype, right=(right.shape, right.dtype),
-                    sample_min_cost=sample_min_cost, confidence=want_confidence,
-                    shrunk=shrunk)
+    ready = set_up(config, left.shape, left.dtype, right=(right.shape, right.dtype),
+                   sample_min_cost=sample_min_cost, confidence=want_confidence,
+                   shrunk=shrunk)
     start = time.perf_counter()
     # This thread's workspace: a notebook's or a batch's repeated matches reuse their
     # scratch instead of faulting it in again (kernels/workspace.py).
-    disparity, confidence, raw = run_pipeline(left, right, ready.args, ready.stages,
+    disparity, confidence, raw = run_pipeline(left, right, ready.args, ready.config.stages,
                                               confidence=want_confidence,
                                               workspace=kernels.workspace.for_this_thread())
     seconds = time.perf_counter() - start

@@ -57,21 +57,17 @@ def entries(args, stages, dtype, confidence=False):
     from ..kernels.filters import entries as filter_entries
 
     return kernels.entries(args["engine"], args["cost"], dtype, args["window"],
-                           stages["census_window"], args.get("csw", False), False,
-                           confidence or needs_extras(stages), args.get("dmin", 0),
-                           lr_check=stages["lr_check"] is not None,
-                           census_pattern=stages["census_pattern"]) + filter_entries(stages)
-
-
-def needs_extras(stages):
-    """Whether the kernels must return the second-best and neighbour costs."""
-    return stages["uniqueness_ratio"] is not None or stages["subpixel"] != "none"
+                           stages.census_window, args.get("csw", False), False,
+                           confidence or stages.needs_extras, args["dmin"],
+                           lr_check=stages.lr_check is not None,
+                           census_pattern=stages.census_pattern) + \
+        filter_entries(stages.speckle_size > 0, stages.median > 0, stages.fill == "background")
 
 
 def prefiltered(left, right, stages):
     """The images the cost compares: as given, or StereoBM's x-Sobel response."""
-    if stages["prefilter"] == "xsobel":
-        cap = int(stages["prefilter_cap"])
+    if stages.prefilter == "xsobel":
+        cap = int(stages.prefilter_cap)
         return xsobel(left, cap), xsobel(right, cap)
     return left, right
 
@@ -116,8 +112,8 @@ def run(left, right, kernel_args, stages, confidence=False, workspace=None):
     stage asked for the second-best costs.
 
     left, right: uint8/uint16 (H, W).  kernel_args: csw.kernels.match's arguments (engine,
-    window, range, cost, CSW).  stages: checked stage options (csw.config.params.stages of a
-    resolved option set; see the module's docstring).
+    window, range, cost, CSW).  stages: a csw.config.params.Stages (see the module's
+    docstring).
     confidence: compute the second-best costs for the confidence map even when no stage
     needs them.
     workspace: a kernels.workspace.Workspace for the scratch that never leaves the call
@@ -137,8 +133,8 @@ def row_overlap(stages, window, cost):
     plus one for the x-Sobel (prefilter or texture)."""
     rows = window // 2
     if cost == "census":
-        rows += int(stages["census_window"]) // 2
-    if stages["prefilter"] == "xsobel" or stages["texture_threshold"] is not None:
+        rows += int(stages.census_window) // 2
+    if stages.prefilter == "xsobel" or stages.texture_threshold is not None:
         rows += 1
     return rows
 
@@ -149,8 +145,8 @@ def filter_overlap(stages):
     pixels; a larger one has S of its pixels within S - 1 rows (its first S pixels in a
     breadth-first walk), so S - 1 rows decide every region as the whole map does.  The
     median needs half its side more, of rows the speckle filter got right."""
-    rows = int(stages["speckle_size"]) - 1 if stages["speckle_size"] > 1 else 0
-    return rows + int(stages["median"]) // 2
+    rows = int(stages.speckle_size) - 1 if stages.speckle_size > 1 else 0
+    return rows + int(stages.median) // 2
 
 
 def is_row_local(stages):
@@ -164,27 +160,27 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
     row y depends only on input rows y +- :func:`row_overlap`.  workspace: see
     :func:`run`."""
     a, b = prefiltered(left, right, stages)
-    raw = kernels.match(a, b, census_window=stages["census_window"],
-                        census_pattern=stages["census_pattern"],
-                        extras=confidence or needs_extras(stages),
-                        lr_check=stages["lr_check"], workspace=workspace, **kernel_args)
+    raw = kernels.match(a, b, census_window=stages.census_window,
+                        census_pattern=stages.census_pattern,
+                        extras=confidence or stages.needs_extras,
+                        lr_check=stages.lr_check, workspace=workspace, **kernel_args)
     invalid = kernels.invalid(kernel_args["dmin"])
     valid = np.not_equal(raw.disparity, invalid,
                          out=kernels.workspace.empty(workspace, "valid", raw.disparity.shape,
                                                      np.bool_))
-    if stages["lr_check"] is not None:
+    if stages.lr_check is not None:
         valid &= raw.lr_valid
         raw.lr_valid = None  # maybe the workspace's: not to be kept
-    if stages["uniqueness_ratio"] is not None:
-        valid &= distinct(raw.min_cost, raw.second_cost, stages["uniqueness_ratio"])
-    if stages["texture_threshold"] is not None:
+    if stages.uniqueness_ratio is not None:
+        valid &= distinct(raw.min_cost, raw.second_cost, stages.uniqueness_ratio)
+    if stages.texture_threshold is not None:
         rows = kernel_args.get("rows")
-        texture = textured(left, kernel_args["window"], int(stages["prefilter_cap"]),
-                           stages["texture_threshold"])
+        texture = textured(left, kernel_args["window"], int(stages.prefilter_cap),
+                           stages.texture_threshold)
         valid &= texture if rows is None else texture[rows]
-    if stages["subpixel"] != "none":
+    if stages.subpixel != "none":
         disp = (raw.disparity + subpixel_offset(raw.min_cost, raw.prev_cost, raw.next_cost,
-                                                stages["subpixel"])).astype(np.float32)
+                                                stages.subpixel)).astype(np.float32)
     else:
         disp = raw.disparity.astype(np.float32)
     if workspace is not None:
@@ -201,15 +197,15 @@ def filter_map(disp, conf, stages, workspace=None, threads=None):
     background fill; the confidence is 0 wherever the filters left no disparity.  Returns
     (disparity, confidence), float32 (H, W); ``disp`` may be changed in place, and a
     ``conf`` of None stays None.  workspace: see :func:`run`; threads: as for csw.match."""
-    if stages["speckle_size"] > 0:
-        disp[speckle_mask(disp, int(stages["speckle_size"]), float(stages["speckle_range"]),
+    if stages.speckle_size > 0:
+        disp[speckle_mask(disp, int(stages.speckle_size), float(stages.speckle_range),
                           workspace, threads)] = np.nan
-    if stages["median"]:
-        disp = median_valid(disp, int(stages["median"]), threads)
+    if stages.median:
+        disp = median_valid(disp, int(stages.median), threads)
     if conf is not None and not is_row_local(stages):
         # Filters only remove pixels (the median keeps the valid set), so masking the
         # confidence afterwards equals computing it on the filtered map.
         conf = np.where(np.isfinite(disp), conf, np.float32(0))
-    if stages["fill"] == "background":
+    if stages.fill == "background":
         disp = fill_background(disp, threads)
     return disp, conf

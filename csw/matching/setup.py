@@ -1,6 +1,7 @@
 """What every match does before its first row, in one place, for whole images
-(csw.matching.matcher) and row stripes (csw.scale.tiled) alike: check the pair once with
-the kernels' own rules, compile (or load) the kernels, and resolve tau.
+(csw.matching.matcher) and row stripes (csw.scale.tiled) alike: check the pair once
+with the kernels' own rules, decide the range, compile (or load) the kernels, and
+resolve tau.
 """
 
 from dataclasses import dataclass
@@ -9,7 +10,9 @@ import numpy as np
 
 from .. import kernels
 from ..config import params
+from ..config.params import Config, OptionError
 from ..config.tau import resolve_tau, sample_rows
+from . import disparity_range
 from .pipeline import entries
 
 
@@ -17,98 +20,88 @@ from .pipeline import entries
 class Prepared:
     """A match ready to run.
 
-    opts: the resolved options (csw.config.params.resolve).  stages: the pipeline's stage
-    options.  args: the kernels' arguments, with csw and the resolved tau.  settings:
-    opts with tau resolved to a number (-1 when CSW is off), ``tau_source`` and the
-    uniqueness margin used.  compile_seconds: the JIT compile or cache load.  plan: what
-    ``make_plan`` returned, if given.
+    config: the resolved options, the range decided.  args: the kernels' arguments, with
+    csw and the resolved tau.  settings: the config as a flat dict, with tau resolved to
+    a number (-1 when CSW is off) and ``tau_source``.  compile_seconds: the JIT compile or
+    cache load.  plan: what ``make_plan`` returned, if given.
     """
 
-    opts: dict
-    stages: dict
+    config: Config
     args: dict
     settings: dict
     compile_seconds: float
     plan: object = None
 
 
-def prepare(opts, shape, dtype, right=None, sample_min_cost=None, make_plan=None,
-            confidence=False, shrunk=None):
-    """Prepare a match of a pair of ``shape`` (H, W) and ``dtype``.
+def _said_of(option, check, *args):
+    """``check(*args)``, its ValueError an OptionError naming ``option``."""
+    try:
+        return check(*args)
+    except ValueError as exc:
+        raise OptionError(option, str(exc)) from None
 
-    opts: the resolved options (csw.config.params.resolve: the callers resolve them before
-    reading any pixel, so a bad option fails first).
+
+def set_up(config, shape, dtype, right=None, sample_min_cost=None, make_plan=None,
+           confidence=False, shrunk=None):
+    """Set up a match of a pair of ``shape`` (H, W) and ``dtype``.
+
+    config: a csw.config.params.Config (the callers resolve it before reading any pixel,
+    so a bad option fails first).
     right: (shape, dtype) of the right image, checked against the left's.
     sample_min_cost(args, stages, rows): plain matching's min-cost rows (int64 (n, W))
-        for the rows tau auto samples (csw.config.tau.sample_rows), matched with ``stages``;
-        called only when tau resolves to auto.
-    make_plan(opts): how the match will run (csw.scale.tiled's stripes), made once the pair is
-        checked and its range known, before anything compiles; its result is
+        for the rows tau auto samples (csw.config.tau.sample_rows), matched with
+        ``stages``; called only when tau resolves to auto.
+    make_plan(config): how the match will run (csw.scale.tiled's stripes), made once the
+        pair is checked and its range known, before anything compiles; its result is
         ``Prepared.plan``.
     confidence: the run computes the confidence map (its kernels make the second-best
         costs).
-    shrunk(f): the pair shrunk f times (csw.matching.autorange.shrink), for a range "auto".
-    Raises ValueError, saying how to fix it, on any bad option or pair.
+    shrunk(f): the pair shrunk f times (csw.matching.disparity_range.shrink), for a
+        range "auto".
+    Raises ValueError, saying how to fix it, on any bad option or pair.  The kernels
+    check their arguments once more, on the real pixels, at their entry.
     """
     if right is not None:
         kernels.contract.check_pair(shape, dtype, *right)
     height, width = shape
-    if opts["window"] > min(height, width):  # said of the pair, not of a stand-in
-        raise params.OptionError("window", f"window {opts['window']} is larger than the "
-                                           f"image ({width}x{height}); use a smaller window")
-    for bound in ("dmin", "dmax"):
-        if opts[bound] != "auto" and opts[bound] >= width:
-            raise params.OptionError(bound, f"{bound} ({opts[bound]}) must be less than the "
-                                            f"image width ({width}); lower {bound}")
-    if opts["cost"] == "census":  # before any work: a census too wide for 64 bits
-        try:
-            kernels.contract.census_dtype(opts["census_window"], opts["census_pattern"])
-        except ValueError as exc:
-            raise params.OptionError("census_window", str(exc)) from None
-    range_source = opts.get("range_source", "given")
-    if "auto" in (opts["dmin"], opts["dmax"]):
-        from .autorange import estimate, factor
-
-        f = factor(width)
-        low, high = estimate(*shrunk(f), f, width,
-                             None if opts["dmin"] == "auto" else opts["dmin"],
-                             None if opts["dmax"] == "auto" else opts["dmax"],
-                             opts["threads"])
-        opts = dict(opts, dmin=low, dmax=high)
-        range_source = "auto"
-    # The kernels' own checks, once, on a stand-in as wide as the pair and one window
-    # tall (their rules on the window, range and cost don't depend on the pixels).
-    stand_in = np.zeros((min(height, opts["window"]), width), dtype)
-    kernels.contract.validate(
-        stand_in, stand_in, window=opts["window"], dmin=opts["dmin"], dmax=opts["dmax"],
-        cost=opts["cost"], csw=False, tau=-1, rule=opts["csw_rule"],
-        uniqueness=opts["uniqueness"], census_window=opts["census_window"],
-        census_pattern=opts["census_pattern"])
-    stages = params.stages(opts)
-    layout = make_plan(opts) if make_plan is not None else None
-    compile_s = load_kernels(opts, stages, dtype, confidence)
-    args = params.kernel_args(opts)
+    _said_of("window", kernels.contract.check_window, config.window, height, width)
+    for bound in ("dmin", "dmax"):  # before a range "auto" is searched for
+        value = getattr(config, bound)
+        if value != "auto" and value >= width:
+            raise OptionError(bound, f"{bound} ({value}) must be less than the image width "
+                                     f"({width}); lower {bound}")
+    stages = config.stages
+    if config.cost == "census":  # before any work: a census too wide for 64 bits
+        _said_of("census_window", kernels.contract.census_dtype, stages.census_window,
+                 stages.census_pattern)
+    config = disparity_range.decide(config, width, shrunk=shrunk)
+    _said_of("dmin", kernels.contract.check_range, config.dmin, config.dmax, width)
+    layout = make_plan(config) if make_plan is not None else None
+    compile_s = load_kernels(config, dtype, confidence)
+    args = config.kernel_args()
     tau, source = -1.0, "off"
-    if opts["csw"]:
-        shaping = params.cost_stages(stages)
+    if config.csw:
         tau, source = resolve_tau(
-            opts["tau"], opts["csw_rule"],
-            plain_min_cost=lambda: sample_min_cost(args, shaping, sample_rows(height)))
-    settings = dict(opts, tau=tau, tau_source=source, range_source=range_source,
-                    uniqueness=kernels.contract.resolve_uniqueness(opts["cost"],
-                                                                   opts["uniqueness"]))
-    return Prepared(opts, stages, dict(args, csw=opts["csw"], tau=tau), settings, compile_s,
-                    layout)
+            config.tau, config.csw_rule,
+            plain_min_cost=lambda: sample_min_cost(args, stages.cost_shaping(),
+                                                   sample_rows(height)))
+    settings = dict(config.as_dict(), tau=tau, tau_source=source)
+    return Prepared(config, dict(args, csw=config.csw, tau=tau), settings, compile_s, layout)
 
 
-def load_kernels(opts, stages, dtype, confidence=False):
-    """Load (compiling once, if need be) every kernel entry a match with these options
-    runs, including tau auto's plain sample; return the seconds taken."""
-    args = params.kernel_args(opts)
-    wanted = entries(dict(args, csw=opts["csw"]), stages, dtype, confidence)
-    if opts["csw"]:  # tau's sample: plain matching with the stages that shape the costs
-        wanted += entries(dict(args, csw=False), params.cost_stages(stages), dtype)
-    return kernels.native.ensure(wanted)
+def load_kernels(config, dtype, confidence=False):
+    """Load (compiling once, if need be) every kernel entry a match with ``config`` (its
+    range decided) runs, including tau auto's plain sample; return the seconds taken."""
+    return kernels.native.ensure(config_entries(config, np.dtype(dtype), confidence))
+
+
+def config_entries(config, dtype, confidence=False):
+    """The kernel entries a match with ``config`` runs on images of ``dtype``."""
+    args = config.kernel_args()
+    wanted = entries(dict(args, csw=config.csw), config.stages, dtype, confidence)
+    if config.csw:  # tau's sample: plain matching with the stages that shape the costs
+        wanted += entries(dict(args, csw=False), config.stages.cost_shaping(), dtype)
+    return wanted
 
 
 def preset_entries(presets=None):
@@ -117,14 +110,9 @@ def preset_entries(presets=None):
     wanted = []
     for preset in presets or params.PRESETS:
         for csw in (False, True):
-            opts = params.resolve(preset=preset, csw=csw)
+            config = params.resolve(preset=preset, csw=csw)
             for dtype in (np.uint8, np.uint16):
-                args = dict(params.kernel_args(opts), csw=csw)
-                stages = params.stages(opts)
-                wanted += entries(args, stages, np.dtype(dtype))
-                if csw:  # tau auto's plain sample
-                    wanted += entries(dict(args, csw=False), params.cost_stages(stages),
-                                      np.dtype(dtype))
+                wanted += config_entries(config, np.dtype(dtype))
     return list(dict.fromkeys((k, tuple(v)) for k, v in wanted))
 
 

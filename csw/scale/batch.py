@@ -191,14 +191,14 @@ def check_outputs(jobs, outputs, out_dir, summary, calib=None):
                                      "first")
 
 
-def run_job(task, calib=None, three_d=None, **match_options):
+def run_job(task, config, calib=None, three_d=None):
     """Match one pair, a (Job, outputs) task (outputs: role -> path, "map" first), and
     write its map and the 3-D outputs asked for, all or none, through the one path from
     a pair to files (csw.match_files: a pair too big for memory is matched in stripes);
     returns a summary entry (never raises for a bad pair: the error is in the entry).
     calib: the batch's Calibration, else the pair's calib.txt (beside its left image) is
-    used; its ndisp sets the range when the options give no dmax.  three_d: max_depth
-    and units."""
+    used; its ndisp sets the range when the options give no dmax.  config: the batch's
+    csw.config.params.Config, resolved once.  three_d: max_depth and units."""
     job, outputs = task
     entry = {"name": job.name, "left": str(job.left),
              "right": str(job.right) if job.right else None,
@@ -211,7 +211,7 @@ def run_job(task, calib=None, three_d=None, **match_options):
         result = match_files(job.left, job.right, outputs["map"], calib=calibration,
                              depth=outputs.get("depth"), cloud=outputs.get("cloud"),
                              depth_preview=outputs.get("depth_preview"), keep_scratch=True,
-                             **(three_d or {}), **match_options)
+                             config=config, **(three_d or {}))
     except Exception as exc:  # noqa: BLE001 (any error of one pair is that pair's, reported)
         return dict(entry, status="failed", error=failure_message(exc))
     s = result.settings
@@ -237,7 +237,8 @@ def failure_message(exc):
 
 def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
                summary=None, client=None, calib=None, depth=None, cloud=None,
-               depth_preview=None, max_depth=None, units=None, **match_options):
+               depth_preview=None, max_depth=None, units=None, config=None,
+               **match_options):
     """Match every job into ``out_dir/<name><suffix>``.
 
     Parameters
@@ -270,7 +271,8 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     max_depth, units : optional
         As for :func:`csw.match_files`.
     **match_options
-        As for :func:`csw.match`.
+        As for :func:`csw.match`; or ``config``, a csw.config.params.Config resolved
+        already.  Every pair runs with the one config resolved here.
 
     Returns
     -------
@@ -286,9 +288,12 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise OptionError("output_dir", f"{out_dir} exists and is not a folder")
-    resolved = resolve(**match_options)  # bad options fail before any work
+    if config is not None and match_options:
+        raise TypeError("give match_many its options or a resolved config, not both")
+    # Once for every pair, and bad options fail before any work.
+    config = resolve(**match_options) if config is None else config
     try:
-        check_range(f"map{suffix}", resolved["dmax"], resolved["dmin"])
+        check_range(f"map{suffix}", config.dmax, config.dmin)
     except ValueError as exc:
         raise OptionError("dmax", str(exc)) from None
     check_names(jobs)
@@ -328,8 +333,8 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     try:
         tasks = ((jobs[i], outputs[i]) for i in todo)
         three_d = dict(max_depth=max_depth, units=units)
-        for k, entry in run_tasks(run_job, tasks, client, calib=calib, three_d=three_d,
-                                  **match_options):
+        for k, entry in run_tasks(run_job, tasks, client, config=config, calib=calib,
+                                  three_d=three_d):
             log.add(todo[k], entry)
             bar.update()
             if callable(progress):
@@ -337,10 +342,10 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         # Every task has finished: a temporary file still beside an output was left by a
         # worker killed mid-write (its task was rerun elsewhere), so it can go.
         remove_temporaries(path for i in todo for path in outputs[i].values())
-        return write_summary(summary, log, resolved)
+        return write_summary(summary, log, config.as_dict())
     except KeyboardInterrupt:
         # What finished is complete on disk: say so, marked as interrupted, and stop.
-        write_summary(summary, log, resolved, interrupted=True)
+        write_summary(summary, log, config.as_dict(), interrupted=True)
         raise
     finally:
         bar.close()
@@ -405,11 +410,11 @@ class SummaryPairs(Sequence):
         return next(itertools.islice(iter(self), index, None))
 
 
-def write_summary(path, log, resolved, interrupted=False):
+def write_summary(path, log, options, interrupted=False):
     """Write the JSON summary atomically, one pair a line in the jobs' order, and return
     the report: counts, options, interrupted, failed (the failed pairs' entries) and
     pairs (every entry, read from the summary when asked for)."""
-    head = {"counts": log.counts, "interrupted": interrupted, "options": resolved}
+    head = {"counts": log.counts, "interrupted": interrupted, "options": options}
 
     def write(tmp):
         with open(tmp, "wb") as out:

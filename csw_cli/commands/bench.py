@@ -49,7 +49,7 @@ def literal_tau(ctx, param, value):
             help=params.RULE_HELP + " [default: literal,unique; with --preset paper: literal]")
 @opt.option("tau", flag="--unique-tau", dest="unique_tau",
             help="tau for the unique rule's rows [default: none, no cost threshold].")
-@opt.option("uniqueness")
+@opt.option("csw_margin")
 @opt.option("preset", preset=params.EXPERIMENT_PRESET,
             help="paper: the paper's method and settings (window engine, literal rule, 9x9, "
                  "its costs, disparity ranges and taus); raw or accurate: that pipeline (see "
@@ -68,7 +68,7 @@ def literal_tau(ctx, param, value):
 @opt.verify_option
 @opt.stage_options(params.EXPERIMENT_PRESET, skip=("preset",))
 @click.pass_context
-def bench(ctx, datasets, dataset_dirs, costs, engines, tau, csw_rules, unique_tau, uniqueness,
+def bench(ctx, datasets, dataset_dirs, costs, engines, tau, csw_rules, unique_tau, csw_margin,
           preset, window, dmin, dmax, repeat, threads, paper_figures, fmt, data_dir, download,
           verify, **stage_values):
     """Match each dataset plain and with CSW, score both, and time both.
@@ -94,7 +94,7 @@ def bench(ctx, datasets, dataset_dirs, costs, engines, tau, csw_rules, unique_ta
         rows, caption = run_bench(
             opt.pairs(datasets, dataset_dirs, data_dir, download, verify), preset=preset,
             costs=costs, engines=engines, rules=csw_rules, tau=tau, unique_tau=unique_tau,
-            uniqueness=uniqueness, window=window, dmin=dmin, dmax=dmax, repeat=repeat,
+            csw_margin=csw_margin, window=window, dmin=dmin, dmax=dmax, repeat=repeat,
             threads=threads, progress=progress,
             stages=opt.given(ctx, list(params.OFF)))
     emit(rows, COLUMNS + (PAPER_COLUMNS if paper_figures else []), fmt, caption)

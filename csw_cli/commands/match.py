@@ -11,7 +11,7 @@ from .. import options as opt
 
 # The matching options csw match passes on when given (the library fills in the rest).
 MATCH_OPTIONS = ["preset", "engine", "cost", "window", "dmin", "dmax", "csw", "csw_rule",
-                 "tau", "uniqueness", "threads", *opt.params.OFF]
+                 "tau", "csw_margin", "threads", *opt.params.OFF]
 
 
 def summary_line(result):
@@ -101,7 +101,7 @@ def memory_size(ctx, param, value):
 @opt.option("csw")
 @opt.option("csw_rule")
 @opt.option("tau")
-@opt.option("uniqueness")
+@opt.option("csw_margin")
 @opt.option("threads", short="-j")
 @click.option("--preview", type=click.Path(dir_okay=False),
               help="Also write an 8-bit colour PNG of the map (invalid black).")
@@ -168,10 +168,10 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
         if left is not None and (right is None or not os.path.isdir(right)):
             raise click.UsageError("with a LEFT folder, RIGHT must be a folder too")
         with opt.library_errors():
-            params.resolve(**settings)  # a bad option fails before the manifest is read
+            config = params.resolve(**settings)  # before the manifest is read, and once
         calibration = opt.calibration(ctx.params)
         return match_batch(left, right, manifest, output_dir, suffix, overwrite, summary,
-                           settings, workers, scheduler, calibration, three_d)
+                           config, workers, scheduler, calibration, three_d)
     if left is None or right is None:
         raise click.UsageError("give LEFT and RIGHT images (or folders with --output-dir)")
     if output is None:
@@ -196,9 +196,10 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     click.echo(summary_line(result), err=True)
 
 
-def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, settings,
+def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, config,
                 workers=None, scheduler=None, calibration=None, three_d=None):
-    """The batch form: pairs from two folders or a manifest, into OUTPUT_DIR."""
+    """The batch form: pairs from two folders or a manifest, into OUTPUT_DIR, with the
+    resolved ``config``."""
     from csw import jobs_from_folders, jobs_from_manifest, match_many
     from csw.scale.distributed import cluster
 
@@ -211,7 +212,7 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, s
         with opt.library_errors(), cluster(workers, scheduler) as client:
             report = match_many(jobs, out, suffix=suffix, overwrite=overwrite, progress=True,
                                 summary=summary, client=client, calib=calibration,
-                                **(three_d or {}), **settings)
+                                config=config, **(three_d or {}))
     except OSError as exc:
         raise write_error(exc) from None
     counts = report["counts"]

@@ -30,7 +30,7 @@ def parse_ints(ctx, param, value):
     except ValueError:
         raise click.BadParameter(f"{value!r}: comma-separated whole percentages") from None
     if not values or len(values) > 100 or any(not 0 <= v <= 1000 for v in values):
-        raise click.BadParameter("give 1 to 100 uniqueness values, each from 0 to 1000")
+        raise click.BadParameter("give 1 to 100 margins, each from 0 to 1000")
     return values
 
 
@@ -43,9 +43,9 @@ def parse_ints(ctx, param, value):
               callback=parse_taus,
               help="Taus: numbers, Nx (N times the auto tau), a:b:step, none "
                    "(at most 1000 in all).")
-@click.option("--uniqueness", "uniquenesses", default=None, callback=parse_ints,
-              help="Comma-separated uniqueness percentages for the unique rule "
-                   f"[default: {params.UNIQUENESS_TEXT}].")
+@click.option("--csw-margin", "csw_margins", default=None, callback=parse_ints,
+              help="Comma-separated margins (percent) for the unique rule "
+                   f"[default: {params.CSW_MARGIN_TEXT}].")
 @opt.option("window", short="-w", default=params.DEFAULTS["window"])
 @opt.dataset_dmax_option
 @opt.option("threads", short="-j")
@@ -57,7 +57,7 @@ def parse_ints(ctx, param, value):
 @opt.verify_option
 @opt.stage_options(params.EXPERIMENT_PRESET)
 @click.pass_context
-def sweep(ctx, datasets, dataset_dirs, cost, csw_rules, taus, uniquenesses, window, dmax,
+def sweep(ctx, datasets, dataset_dirs, cost, csw_rules, taus, csw_margins, window, dmax,
           threads, plot, fmt, data_dir, download, verify, **stage_values):
     """Run CSW over a range of tau for each rule and report work saved against bad-1.
 
@@ -66,7 +66,7 @@ def sweep(ctx, datasets, dataset_dirs, cost, csw_rules, taus, uniquenesses, wind
     \b
     Examples:
       csw sweep --dataset tsukuba --dmax 16
-      csw sweep -d cones --csw-rule unique --uniqueness 8,12,20 --tau-range 1x,3x,none
+      csw sweep -d cones --csw-rule unique --csw-margin 8,12,20 --tau-range 1x,3x,none
       csw sweep -d teddy --tau-range 200:1200:200 --plot teddy.png
     """
     from csw import sweep_rows
@@ -83,7 +83,7 @@ def sweep(ctx, datasets, dataset_dirs, cost, csw_rules, taus, uniquenesses, wind
         names.append(pair.name)
         with opt.library_errors():
             rows += sweep_rows(pair, cost=cost, rules=csw_rules, taus=taus,
-                               uniquenesses=uniquenesses, window=window, dmax=top,
+                               csw_margins=csw_margins, window=window, dmax=top,
                                threads=threads, stages=stages,
                                progress=lambda step: click.echo(f"sweep: {step}", err=True))
     caption = (f"CSW trade-off, {cost.upper()} {window}x{window}: work saved (candidate "

@@ -65,6 +65,6 @@ def lr_agrees(d, back, limit, invalid):
 
 
 @njit(**SERIAL)
-def is_distinct(best, second, uniqueness):
-    """The unique rule's test: a second-best cost exists and beats best by uniqueness %."""
-    return second >= 0 and second * 100 > best * (100 + uniqueness)
+def is_distinct(best, second, csw_margin):
+    """The unique rule's test: a second-best cost exists and beats best by csw_margin %."""
+    return second >= 0 and second * 100 > best * (100 + csw_margin)

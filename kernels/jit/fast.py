@@ -34,7 +34,7 @@ from .common import blocked, ctpop, dtype_of, is_distinct, lr_agrees, stop_reque
 KEYED_RANGE = 128
 
 # The scalars every stripe takes, in order (the entry's record).
-SCALARS = ("window", "dmin", "dmax", "tau", "rule", "uniqueness", "slack", "y0", "y1",
+SCALARS = ("window", "dmin", "dmax", "tau", "rule", "csw_margin", "slack", "y0", "y1",
            "never", "keep_right", "lr_limit")
 
 
@@ -138,7 +138,7 @@ def _make(cost, acc, csw, right_map, extras, negative):
         """
         width = disp_row.shape[0]
         ndisp = col_sums.shape[1]
-        w, dmin, tau, rule, uniqueness, slack = sc[0], sc[1], sc[3], sc[4], sc[5], sc[6]
+        w, dmin, tau, rule, csw_margin, slack = sc[0], sc[1], sc[3], sc[4], sc[5], sc[6]
         keep_right, lr_limit = sc[10], sc[11]
         shift = -dmin if negative else 0  # the right-pixel arrays' extra front entries
         if csw:
@@ -285,7 +285,7 @@ def _make(cost, acc, csw, right_map, extras, negative):
             if not csw or best > tau:
                 continue
             if rule == RULE_UNIQUE and (second == never or not is_distinct(
-                    np.int64(best), np.int64(second), uniqueness)):
+                    np.int64(best), np.int64(second), csw_margin)):
                 continue
             claims_rev[base + first] = x
         if right_map and keep_right:

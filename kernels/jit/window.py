@@ -14,7 +14,7 @@ from ..contract import INVALID, NEG_INVALID, RULE_UNIQUE
 from .common import blocked, ctpop, dtype_of, is_distinct, stop_requested
 
 # The scalars every stripe takes, in order.
-SCALARS = ("window", "dmin", "dmax", "tau", "rule", "uniqueness", "slack", "i0", "i1")
+SCALARS = ("window", "dmin", "dmax", "tau", "rule", "csw_margin", "slack", "i0", "i1")
 
 
 def spec(cost, pixels, csw, right_map, extras, negative=False):
@@ -73,7 +73,7 @@ def _make(cost, csw, right_map, extras, negative):
             out with right_map (see MatchResult).
         """
         width = disp_row.shape[0]
-        w, dmin, dmax, tau, rule, uniqueness, slack = (sc[0], sc[1], sc[2], sc[3], sc[4],
+        w, dmin, dmax, tau, rule, csw_margin, slack = (sc[0], sc[1], sc[2], sc[3], sc[4],
                                                        sc[5], sc[6])
         if csw:
             claims[:] = -1
@@ -118,7 +118,7 @@ def _make(cost, csw, right_map, extras, negative):
                 next_row[x] = costs[best_d + 1 - dmin] if found and best_d < top else -1
             if not csw or best_d == invalid or best > tau:
                 continue
-            if rule == RULE_UNIQUE and not is_distinct(best, second, uniqueness):
+            if rule == RULE_UNIQUE and not is_distinct(best, second, csw_margin):
                 continue
             claims[x - best_d] = x
         return evaluated

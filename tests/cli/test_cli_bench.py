@@ -7,6 +7,7 @@ import pytest
 from click.testing import CliRunner
 
 from csw import kernels
+from csw.config.params import csw_margin_for
 from csw.config.tau import paper_tau
 from csw.data import datasets as D
 from csw.eval.scoring import score
@@ -44,7 +45,7 @@ def test_bench_json_schema(synthetic_bench):
             assert isinstance(row["tau"], float)
         if row["rule"] == "unique":
             assert row["tau"] is None and row["tau_source"] == "none"  # no threshold
-            assert row["uniqueness"] == 12
+            assert row["csw_margin"] == 12
         if row["csw"]:
             assert row["time_reduced"] is not None and 0 <= row["work_saved"] <= 100
         else:
@@ -63,10 +64,11 @@ def test_bench_rows_equal_the_kernels_own_output(synthetic_bench):
             assert row["tau"] == pytest.approx(tau)
             result = kernels.match(pair.left, pair.right, window=7, dmax=40,
                                    cost=row["cost"], csw=True, tau=tau, engine="window", dmin=0)
-        elif row["rule"] == "unique":  # no tau by default, per-cost uniqueness
+        elif row["rule"] == "unique":  # no tau by default, per-cost margin
             result = kernels.match(pair.left, pair.right, window=7, dmax=40,
                                    cost=row["cost"], csw=True, tau=float("inf"),
-                                   rule="unique", engine="window", dmin=0)
+                                   rule="unique", csw_margin=csw_margin_for(row["cost"]),
+                                   engine="window", dmin=0)
         if row["csw"]:
             assert row["work_saved"] == pytest.approx(100 * result.work_saved)
         metrics = score(result.disparity, pair.gt, pair.masks)

@@ -120,7 +120,7 @@ BAD_INPUTS = [
     (["{left}", "{right}", "-o", "{junk}/d.pfm"], 2, "does not exist"),
     (["{left}", "{right}", "--tau", "many", "--csw"], 2, "not a number"),
     (["{left}", "{right}", "--tau", "nan", "--csw"], 2, "NaN"),
-    (["{left}", "{right}", "--uniqueness", "-3", "--csw"], 2, "-3"),
+    (["{left}", "{right}", "--csw-margin", "-3", "--csw"], 2, "-3"),
     (["{left}", "{right}", "--csw-rule", "greedy", "--csw"], 2, "greedy"),
     (["{left}", "{right}", "--engine", "gpu"], 2, "gpu"),
     (["{left}", "{right}", "-o", "{left}"], 2, "must not overwrite"),
@@ -224,11 +224,11 @@ def test_unique_rule_through_the_cli(pair_files, tmp_path, small_scene):
     left, right = pair_files
     out = tmp_path / "u.npy"
     result = run("match", left, right, "-o", out, "--dmax", 16, "--csw", "--csw-rule",
-                 "unique", "--uniqueness", 20, "--engine", "window")
+                 "unique", "--csw-margin", 20, "--engine", "window")
     assert result.exit_code == 0, result.output
     assert "CSW unique tau=none" in result.stderr
     expected = csw.match(small_scene[0], small_scene[1], dmax=16, csw=True, tau="none",
-                         csw_rule="unique", uniqueness=20)
+                         csw_rule="unique", csw_margin=20)
     np.testing.assert_array_equal(np.load(out), np.nan_to_num(expected.disparity, nan=np.inf))
 
 

@@ -34,3 +34,57 @@ def test_one_match_resolves_its_options_once(pair_files, tmp_path, monkeypatch, 
                                       str(tmp_path / "d.pfm"), "--dmax", "8", *extra])
     assert result.exit_code == 0, result.output
     assert len(calls) == 1, calls
+
+
+@pytest.mark.parametrize("engine", ["fast", "window"])
+def test_one_whole_match_validates_the_contract_once(pair_files, tmp_path, monkeypatch,
+                                                      engine):
+    """The kernels' rules are checked once, at the kernel's entry, on the real pixels:
+    the set-up before it checks the pair with the contract's own functions, not a
+    second validate."""
+    from csw.kernels import contract, fast, window
+
+    calls = []
+    real = contract.validate
+
+    def spy(*args, **kwargs):
+        calls.append(kwargs)
+        return real(*args, **kwargs)
+
+    for module in (contract, fast, window):
+        monkeypatch.setattr(module, "validate", spy)
+    result = CliRunner().invoke(cli, ["match", *map(str, pair_files), "-o",
+                                      str(tmp_path / "d.pfm"), "--dmax", "8",
+                                      "--engine", engine])
+    assert result.exit_code == 0, result.output
+    assert len(calls) == 1
+
+
+def test_a_batch_resolves_its_options_once(pair_files, tmp_path, monkeypatch):
+    """Every pair of a batch runs with the one Config the batch resolved."""
+    calls = []
+    real = params.resolve
+
+    def spy(**given):
+        calls.append(given)
+        return real(**given)
+
+    import csw.matching.files
+    import csw.matching.matcher
+    import csw.scale.batch
+
+    for module in (params, csw.scale.batch, csw.matching.files, csw.matching.matcher):
+        monkeypatch.setattr(module, "resolve", spy)
+    left, right = pair_files
+    lefts, rights = tmp_path / "L", tmp_path / "R"
+    lefts.mkdir()
+    rights.mkdir()
+    for name in ("a", "b", "c"):
+        (lefts / f"{name}.png").write_bytes(left.read_bytes())
+        (rights / f"{name}.png").write_bytes(right.read_bytes())
+    result = CliRunner().invoke(cli, ["match", str(lefts), str(rights), "-O",
+                                      str(tmp_path / "out"), "--dmax", "8"])
+    assert result.exit_code == 0, result.output
+    assert len(calls) == 1, calls
+    assert sorted(p.name for p in (tmp_path / "out").glob("*.pfm")) == \
+        ["a.pfm", "b.pfm", "c.pfm"]

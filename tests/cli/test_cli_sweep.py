@@ -18,10 +18,10 @@ def invoke(*args):
 
 def test_sweep_rows_match_the_kernels(tmp_path):
     result = invoke("sweep", "-d", "synthetic", "--dmax", 24, "--window", 5, "--tau-range",
-                    "0.5x,200,none", "--uniqueness", "8,20", "--format", "json")
+                    "0.5x,200,none", "--csw-margin", "8,20", "--format", "json")
     assert result.exit_code == 0, result.output
     rows = json.loads(result.stdout)
-    # plain, 3 literal taus, 2 uniquenesses x 3 taus
+    # plain, 3 literal taus, 2 margins x 3 taus
     assert [r["rule"] for r in rows] == [None] + ["literal"] * 3 + ["unique"] * 6
     pair = D.load("synthetic")
     plain = kernels.match(pair.left, pair.right, engine="fast", window=5, dmin=0, dmax=24,
@@ -31,7 +31,7 @@ def test_sweep_rows_match_the_kernels(tmp_path):
     for row in rows[1:]:
         tau = float("inf") if row["tau_label"] == "none" else row["tau"]
         got = kernels.match(pair.left, pair.right, window=5, dmax=24, csw=True, tau=tau,
-                            rule=row["rule"], uniqueness=row["uniqueness"], engine="fast",
+                            rule=row["rule"], csw_margin=row["csw_margin"], engine="fast",
                             dmin=0, cost="sad")
         assert row["work_saved"] == pytest.approx(100 * got.work_saved)
         assert row["error_rate"] == pytest.approx(bad1_all(got.disparity, pair))
@@ -49,7 +49,7 @@ def test_sweep_plot(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["--tau-range", "1:abc:2"], "a:b:step"),
     (["--tau-range", "5:1:0"], "a:b:step"),
-    (["--uniqueness", "x"], "whole percentages"),
+    (["--csw-margin", "x"], "whole percentages"),
     (["--csw-rule", "greedy"], "literal, unique"),
     (["--plot", "p.jpg"], "unknown extension"),
 ])

@@ -7,6 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from csw import kernels
+from csw.config.params import csw_margin_for
 from csw.kernels.census import census_transform
 from oracle import census, oracle_match
 
@@ -69,7 +70,7 @@ def test_extras_and_census_equal_the_oracle(seed, cost, census_kind, window, dmi
                         extras=True)
     for engine in ENGINES:
         got = kernels.match(left, right, engine=engine, window=window, dmin=dmin, dmax=dmax,
-                            cost=cost, csw=csw, tau=tau, rule=rule,
+                            cost=cost, csw=csw, tau=tau, rule=rule, csw_margin=csw_margin_for(cost),
                             census_window=census_window, census_pattern=census_pattern,
                             extras=True, right_map=True)
         assert_same(got, want)
@@ -78,7 +79,8 @@ def test_extras_and_census_equal_the_oracle(seed, cost, census_kind, window, dmi
 @pytest.mark.parametrize("engine", ENGINES)
 def test_extras_leave_the_map_unchanged_and_sampled_rows_work(engine, small_scene):
     left, right, _, _ = small_scene
-    options = dict(engine=engine, window=5, dmin=0, dmax=16, cost="census")
+    options = dict(engine=engine, window=5, dmin=0, dmax=16, cost="census", census_window=5,
+                   census_pattern="dense")
     plain = kernels.match(left, right, **options)
     extra = kernels.match(left, right, extras=True, right_map=True, **options)
     assert plain.second_cost is None and plain.right_disparity is None

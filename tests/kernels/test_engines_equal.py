@@ -87,8 +87,10 @@ def test_every_map_equal_across_the_selection_paths(ndisp, cost):
     left = rng.integers(0, 4, (12, ndisp + 60)).astype(np.uint8)  # few levels: ties
     right = np.roll(left, -ndisp // 3, axis=1) ^ (rng.random(left.shape) < 0.1)
     right = right.astype(np.uint8)
-    for mode in ({}, {"csw": True, "tau": 60}, {"csw": True, "tau": 60, "rule": "unique"}):
+    for mode in ({}, {"csw": True, "tau": 60},
+                 {"csw": True, "tau": 60, "rule": "unique", "csw_margin": 12}):
         options = dict(window=3, dmin=0, dmax=ndisp - 1, cost=cost, census_window=3,
+                       census_pattern="dense",
                        right_map=True, extras=True, **mode)
         window = kernels.match(left, right, engine="window", **options)
         fast = kernels.match(left, right, engine="fast", **options)
@@ -114,8 +116,10 @@ def test_the_left_right_check_made_in_the_rows_equals_the_oracle(dmin, dmax, cos
     right = np.roll(left, -ndisp // 3 - dmin, axis=1) ^ (rng.random(left.shape) < 0.1)
     right = right.astype(np.uint8)
     right[:, 5:15] = rng.integers(0, 4, (12, 10))  # a band the left image does not see
-    for mode in ({}, {"csw": True, "tau": 60}, {"csw": True, "tau": 60, "rule": "unique"}):
-        options = dict(window=3, dmin=dmin, dmax=dmax, cost=cost, census_window=3, **mode)
+    for mode in ({}, {"csw": True, "tau": 60},
+                 {"csw": True, "tau": 60, "rule": "unique", "csw_margin": 12}):
+        options = dict(window=3, dmin=dmin, dmax=dmax, cost=cost, census_window=3,
+                       census_pattern="dense", **mode)
         maps = kernels.match(left, right, engine="window", right_map=True, **options)
         for limit in (0, 2):
             want = oracle.lr_consistent(maps.disparity, maps.right_disparity, limit,

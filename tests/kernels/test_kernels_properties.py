@@ -98,7 +98,7 @@ def test_evaluated_count_equals_oracle_on_scene_rows(engine, scene):
 def test_result_does_not_depend_on_thread_count(engine, rule, scene):
     left, right, _, _ = scene
     runs = [kernels.match(left, right, engine=engine, dmax=24, csw=True, tau=1500, rule=rule,
-                          threads=t, window=9, dmin=0, cost="sad") for t in (1, 2)]
+                          csw_margin=12, threads=t, window=9, dmin=0, cost="sad") for t in (1, 2)]
     np.testing.assert_array_equal(runs[0].disparity, runs[1].disparity)
     np.testing.assert_array_equal(runs[0].min_cost, runs[1].min_cost)
     assert runs[0].evaluated == runs[1].evaluated

@@ -21,7 +21,8 @@ for dtype, scale in ((np.uint8, 1), (np.uint16, 300)):
         for engine in ("window", "fast"):
             for rule, tau in (("literal", 3000), ("unique", 1e18)):
                 got = kernels.match(left, right, engine=engine, window=3, dmin=0, dmax=5, cost=cost,
-                                    csw=True, tau=tau, rule=rule)
+                                    csw=True, tau=tau, rule=rule,
+                                    csw_margin=25 if cost == "ssd" else 12)
                 disp, mins, evaluated = oracle_match(left, right, 3, 0, 5, cost, True, tau,
                                                      rule=rule)
                 assert (got.disparity == disp).all(), (dtype, cost, engine, rule)

@@ -51,12 +51,13 @@ def test_each_thread_has_its_own_workspace():
 @pytest.mark.parametrize("cost", ["census", "sad"])
 def test_matches_through_the_workspace_equal_fresh_ones(small_scene, cost):
     left, right = small_scene[:2]
+    census = dict(census_window=5, census_pattern="dense")
     fresh = kernels.match(left, right, engine="fast", window=5, dmin=0, dmax=12,
-                          cost=cost, right_map=True)
+                          cost=cost, right_map=True, **census)
     ws = Workspace()
     for pair in [(left, right), (right, left), (left, right)]:  # later runs reuse buffers
         got = kernels.match(*pair, engine="fast", window=5, dmin=0, dmax=12, cost=cost,
-                            right_map=True, workspace=ws)
+                            right_map=True, workspace=ws, **census)
     np.testing.assert_array_equal(got.disparity, fresh.disparity)
     np.testing.assert_array_equal(got.right_disparity, fresh.right_disparity)
     np.testing.assert_array_equal(got.min_cost, fresh.min_cost)
@@ -104,7 +105,7 @@ def test_csw_match_uses_its_threads_workspace_and_bare_pipeline_runs_do_not(smal
     ws = for_this_thread()
     ws._held.clear()
     opts = params.resolve(dmax=12)
-    pipeline.run(left, right, params.kernel_args(opts), params.stages(opts))
+    pipeline.run(left, right, opts.kernel_args(), opts.stages)
     assert ws.held() == 0
     csw.match(left, right, dmax=12)
     assert ws.held() > 0  # the census codes, the right map, the masks

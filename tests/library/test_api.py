@@ -19,8 +19,9 @@ def test_defaults_are_the_table_and_its_preset(small_scene):
     for key in ("preset", "engine", "cost", "window", "dmin", "dmax", "csw", "csw_rule",
                 *params.OFF):
         assert result.settings[key] == chosen[key], key
-    disp, _, raw = pipeline.run(left, right, params.kernel_args(dict(chosen, tau=-1)),
-                                {k: chosen[k] for k in params.OFF})
+    config = params.resolve()
+    disp, _, raw = pipeline.run(left, right, dict(config.kernel_args(), csw=False, tau=-1),
+                                config.stages)
     np.testing.assert_array_equal(result.disparity, disp)
     np.testing.assert_array_equal(result.min_cost, raw.min_cost)
     assert result.valid.dtype == bool and result.disparity.dtype == np.float32
@@ -43,7 +44,7 @@ def test_unique_rule_defaults_to_no_tau(small_scene):
     assert result.settings["tau"] == float("inf") and result.settings["tau_source"] == "none"
     assert result.work_saved > 0.2
     raw = kernels.match(left, right, engine="fast", window=9, dmin=0, dmax=16, cost="sad",
-                        csw=True, tau=float("inf"), rule="unique")
+                        csw=True, tau=float("inf"), rule="unique", csw_margin=12)
     np.testing.assert_array_equal(np.nan_to_num(result.disparity, nan=-1), raw.disparity)
 
 
@@ -98,9 +99,9 @@ def test_loading_the_kernels_loads_what_the_match_runs(cost, dtype, options):
 
     rng = np.random.default_rng(0)
     left = rng.integers(0, 200, (40, 60)).astype(dtype)
-    opts = csw.config.params.resolve(**{"preset": "raw", **options, "cost": cost, "window": 9,
-                                 "dmax": 8})
-    csw.matching.setup.load_kernels(opts, csw.config.params.stages(opts), np.dtype(dtype))
+    opts = csw.config.params.resolve(**{"preset": "raw", **options, "cost": cost,
+                                        "window": 9, "dmax": 8})
+    csw.matching.setup.load_kernels(opts, np.dtype(dtype))
     loaded = dict(native._LOADED)
     csw.match(left, np.roll(left, 2, 1), **{"preset": "raw", **options, "cost": cost,
                                              "window": 9, "dmax": 8})

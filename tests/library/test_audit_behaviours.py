@@ -11,7 +11,7 @@ import pytest
 import csw
 from csw.camera.calibration import read_calibration
 from csw.io import atomic
-from csw.matching import autorange
+from csw.matching import disparity_range as autorange
 from csw.scale import batch
 
 
@@ -50,10 +50,8 @@ def test_cloud_points_follow_the_units_as_depth_does():
 
 def shrunk_map(monkeypatch, found):
     """autorange.estimate with the small pair's match replaced by ``found``."""
-    class Result:
-        disparity = found
-
-    monkeypatch.setattr("csw.matching.matcher.match", lambda *a, **k: Result)
+    monkeypatch.setattr("csw.matching.disparity_range.run_pipeline",
+                        lambda *a, **k: (found, None, None))
 
 
 @pytest.mark.parametrize("share, refused", [(0.009, True), (0.011, False)])

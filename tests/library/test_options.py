@@ -26,7 +26,7 @@ RIGHT = np.roll(LEFT, -2, axis=1)
     (dict(median="3"), "median", 3), (dict(window=9.0), "window", 9),
     (dict(speckle_range="1.5"), "speckle_range", 1.5), (dict(cost="CENSUS"), "cost", "census"),
     (dict(csw=True, tau="None"), "tau", math.inf), (dict(csw=True, tau=12), "tau", 12.0),
-    (dict(csw=True, csw_rule="unique", uniqueness="20"), "uniqueness", 20),
+    (dict(csw=True, csw_rule="unique", csw_margin="20"), "csw_margin", 20),
 ])
 def test_documented_spellings_are_accepted(given, name, value):
     """The docstring's spellings ("off", numbers as text, any case) are read, not refused
@@ -88,6 +88,67 @@ def test_any_option_values_give_a_result_or_a_value_error(options):
         return
     assert result.disparity.shape == LEFT.shape and result.disparity.dtype == np.float32
     for name, value in options.items():
-        # tau, uniqueness and a range "auto" are resolved to the numbers used
-        if name not in ("tau", "uniqueness") and params.check(name, value) != "auto":
+        # tau, csw_margin and a range "auto" are resolved to the numbers used
+        if name not in ("tau", "csw_margin") and params.check(name, value) != "auto":
             assert result.settings[name] == params.check(name, value), name
+
+
+def test_the_config_is_one_frozen_typed_record_of_the_table():
+    """resolve() returns a Config whose fields (and its stages' fields) are the option
+    table's names, typed, and that can't be changed in place."""
+    import dataclasses
+
+    config = params.resolve(dmax=20)
+    fields = {f.name for f in dataclasses.fields(params.Config)} - {"stages", "given",
+                                                                     "range_source"}
+    stage_fields = {f.name for f in dataclasses.fields(params.Stages)}
+    assert fields | stage_fields == set(params.OPTIONS)
+    assert stage_fields == set(params.STAGE_NAMES)
+    assert all(f.type for f in dataclasses.fields(params.Config))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        config.dmax = 30
+    assert config.as_dict()["dmax"] == 20 and config.as_dict()["lr_check"] == 2
+
+
+def test_the_kernels_get_the_table_s_census_not_one_of_their_own():
+    """--preset raw --cost census runs the table's census (once the kernels' own dense 5x5
+    default ran silently); the kernels refuse a census without its window and pattern."""
+    config = params.resolve(preset="raw", cost="census")
+    assert (config.stages.census_window, config.stages.census_pattern) == \
+        (params.DEFAULT_CENSUS_WINDOW, params.DEFAULT_CENSUS_PATTERN)
+    image = np.zeros((9, 20), np.uint8)
+    with pytest.raises(ValueError, match="census_window and census_pattern"):
+        csw.kernels.match(image, image, engine="fast", window=3, dmin=0, dmax=4,
+                          cost="census")
+    with pytest.raises(ValueError, match="give csw_margin"):
+        csw.kernels.match(image, image, engine="fast", window=3, dmin=0, dmax=4, cost="sad",
+                          csw=True, tau=5, rule="unique")
+
+
+@pytest.mark.parametrize("given, source", [
+    ({}, "default"), ({"dmax": 20}, "given"), ({"dmin": 2}, "given"),
+    ({"dmax": "auto"}, "auto")])
+def test_the_range_says_where_it_came_from(small_scene, given, source):
+    result = csw.match(*small_scene[:2], **given)
+    assert result.settings["range_source"] == source
+
+
+def test_a_calibration_s_ndisp_sets_an_ungiven_dmax_only():
+    from dataclasses import replace
+
+    from csw.camera.calibration import given as calibration_given
+    from csw.matching import disparity_range
+
+    calibration = replace(calibration_given(focal=100, baseline=0.1), ndisp=33)
+    config = disparity_range.decide(params.resolve(), 200, calibration)
+    assert (config.dmin, config.dmax) == (0, 32)
+    assert config.range_source.startswith("ndisp of")
+    kept = disparity_range.decide(params.resolve(dmax=20), 200, calibration)
+    assert (kept.dmax, kept.range_source) == (20, "given")
+
+
+@pytest.mark.parametrize("name, value", [("tau", 5), ("csw_margin", 10)])
+def test_options_that_need_csw_are_refused_without_it(name, value):
+    with pytest.raises(params.OptionError, match="only with CSW on"):
+        params.resolve(**{name: value})
+    assert getattr(params.resolve(csw=True, **{name: value}), name) is not None

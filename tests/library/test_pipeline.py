@@ -2,6 +2,8 @@
 keeps its promises (checks only remove pixels, fill leaves none invalid, subpixel stays
 within half a pixel of the integer winner)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -78,8 +80,9 @@ def test_checks_and_subpixel_equal_the_oracle(seed, engine, cost, fit, lr, ratio
     right = np.roll(left, -2, axis=1)
     right[rng.random(right.shape) < 0.2] = 3
     args = dict(engine=engine, window=3, dmin=0, dmax=6, cost=cost, csw=csw_on,
-                tau=10**9 if csw_on else -1, rule="unique")
-    stages = dict(params.OFF, lr_check=lr, uniqueness_ratio=ratio, subpixel=fit)
+                tau=10**9 if csw_on else -1, rule="unique",
+                csw_margin=params.csw_margin_for(cost))
+    stages = replace(params.OFF_STAGES, lr_check=lr, uniqueness_ratio=ratio, subpixel=fit)
     disp, confidence, raw = pipeline.run(left, right, args, stages)
     want_disp, mins, _, more = oracle.oracle_match(
         left, right, 3, 0, 6, cost, csw_on, args["tau"], rule="unique", extras=True)

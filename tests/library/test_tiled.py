@@ -110,14 +110,14 @@ def test_the_filter_overlap_is_exactly_enough(tmp_path, stages, tight):
     filter keeps the first and removes the second only with S - 1 rows of overlap; a
     random map does the same for the median.  (On the segments the 3 x 3 median changes
     nothing, so together they are only checked for exactness.)"""
-    from csw.config.params import OFF
+    from csw.config.params import OFF, Stages
     from csw.matching.pipeline import filter_map, filter_overlap
 
-    stages = dict(OFF, **stages)
+    stages = Stages(**dict(OFF, **stages))
     rng = np.random.default_rng(0)
     disp = np.where(rng.random((40, 30)) < 0.7, rng.integers(0, 9, (40, 30)), np.nan)\
         .astype(np.float32)
-    size = stages["speckle_size"]
+    size = stages.speckle_size
     if size:
         disp[:] = np.nan
         for column, length in ((5, size), (12, size - 1), (20, size), (26, size - 1)):

@@ -12,7 +12,6 @@ import math
 import re
 from dataclasses import dataclass
 
-from ...config.params import stages
 from ...io.formats import TIFF_TILE
 from ...io.sources import open_source
 from ...kernels import runtime
@@ -78,40 +77,39 @@ def _mb(n):
     return f"{math.ceil(n / 2**20)} MiB"
 
 
-def stripe_bytes(opts, width, dmin, dmax, threads, colour=False):
+def stripe_bytes(config, width, dmin, dmax, threads, colour=False):
     """(bytes per band row in pass 1, bytes per band row in pass 2, fixed bytes): the
     memory model the plan follows.  The fixed part is the fast engine's per-thread cost
     columns, (W + window) x (D + 1) accumulators of up to 8 bytes."""
-    st = stages(opts)
+    st = config.stages
     p1 = PASS1_BYTES["base"]
-    p1 += PASS1_BYTES["census"] if opts["cost"] == "census" else 0
-    p1 += PASS1_BYTES["right_map"] if st["lr_check"] is not None else 0
-    p1 += PASS1_BYTES["extras"] if (st["uniqueness_ratio"] is not None
-                                    or st["subpixel"] != "none") else 0
-    p1 += PASS1_BYTES["xsobel"] if st["prefilter"] == "xsobel" else 0
-    p1 += PASS1_BYTES["texture"] if st["texture_threshold"] is not None else 0
+    p1 += PASS1_BYTES["census"] if config.cost == "census" else 0
+    p1 += PASS1_BYTES["right_map"] if st.lr_check is not None else 0
+    p1 += PASS1_BYTES["extras"] if st.needs_extras else 0
+    p1 += PASS1_BYTES["xsobel"] if st.prefilter == "xsobel" else 0
+    p1 += PASS1_BYTES["texture"] if st.texture_threshold is not None else 0
     p1 += PASS1_BYTES["colour"] if colour else 0
     p2 = PASS2_BYTES["base"] + PASS2_BYTES["confidence"]
-    p2 += PASS2_BYTES["speckle"] if st["speckle_size"] > 0 else 0
-    p2 += PASS2_BYTES["median"] if st["median"] else 0
+    p2 += PASS2_BYTES["speckle"] if st.speckle_size > 0 else 0
+    p2 += PASS2_BYTES["median"] if st.median else 0
     ndisp = dmax - dmin + 1
-    fixed = threads * (width + opts["window"]) * (ndisp + 1) * 8 \
-        if opts["engine"] == "fast" else threads * (width + ndisp) * 32
+    fixed = threads * (width + config.window) * (ndisp + 1) * 8 \
+        if config.engine == "fast" else threads * (width + ndisp) * 32
     return p1 * width, p2 * width, fixed
 
 
-def plan(height, width, opts, memory_limit=None, stripe_rows=None, threads=None,
+def plan(height, width, config, memory_limit=None, stripe_rows=None, threads=None,
          colour=False, resident=0):
     """The stripes for a pair under a memory limit (bytes for the stripes' working data,
     on top of the process itself), or of ``stripe_rows`` rows when given.  colour: the
     sources convert colour rows; resident: bytes the sources hold throughout.
     MemoryLimitError when one stripe of the smallest useful height does not fit."""
     memory_limit = DEFAULT_MEMORY_LIMIT if memory_limit is None else memory_limit
-    st = stages(opts)
-    over = row_overlap(st, opts["window"], opts["cost"])
+    st = config.stages
+    over = row_overlap(st, config.window, config.cost)
     fover = filter_overlap(st)
-    threads = threads or runtime.thread_count(opts["threads"])
-    per_row1, per_row2, fixed = stripe_bytes(opts, width, opts["dmin"], opts["dmax"],
+    threads = threads or runtime.thread_count(config.threads)
+    per_row1, per_row2, fixed = stripe_bytes(config, width, config.dmin, config.dmax,
                                              threads, colour)
     fixed += resident
 
@@ -124,7 +122,7 @@ def plan(height, width, opts, memory_limit=None, stripe_rows=None, threads=None,
         band2 = min(height, rows + 2 * fover) if fover else 0
         return max(fixed + per_row1 * band1, resident + per_row2 * band2, writing)
 
-    smallest = min(height, opts["window"])
+    smallest = min(height, config.window)
     if stripe_rows is None:
         if need(smallest) > memory_limit:
             raise MemoryLimitError(
@@ -140,20 +138,20 @@ def plan(height, width, opts, memory_limit=None, stripe_rows=None, threads=None,
         if rows < 1:
             raise ValueError(f"stripe_rows must be at least 1, got {rows}")
         rows = min(rows, height)
-    return Plan(height, width, rows, over, fover, need(rows), opts["window"])
+    return Plan(height, width, rows, over, fover, need(rows), config.window)
 
 
-def too_big_for_whole(left, opts, memory_limit=None):
-    """Whether matching the pair whole with the resolved options ``opts`` would need more
+def too_big_for_whole(left, config, memory_limit=None):
+    """Whether matching the pair whole with the resolved options ``config`` would need more
     than ``memory_limit`` (default: DEFAULT_MEMORY_LIMIT), by the stripes' memory model
     for one stripe the image's height; reads only the header of ``left`` (a path)."""
     memory_limit = DEFAULT_MEMORY_LIMIT if memory_limit is None else memory_limit
     source = open_source(left, "left", probe=False)
     height, width = source.shape
-    if "auto" in (opts["dmin"], opts["dmax"]):  # not known yet: the widest it can be
-        opts = dict(opts, dmin=0 if opts["dmin"] == "auto" else opts["dmin"],
-                    dmax=width // 2 if opts["dmax"] == "auto" else opts["dmax"])
-    whole = plan(height, width, opts, stripe_rows=height, colour=source.colour)
+    if not config.range_known:  # not known yet: the widest it can be
+        config = config.replace(dmin=0 if config.dmin == "auto" else config.dmin,
+                                dmax=width // 2 if config.dmax == "auto" else config.dmax)
+    whole = plan(height, width, config, stripe_rows=height, colour=source.colour)
     return whole.bytes_per_stripe > memory_limit
 
 

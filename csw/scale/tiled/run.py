@@ -23,7 +23,7 @@ from ...io.formats import check_range, format_of, preview_stripes, stripe_writer
 from ...io.safety import check_target
 from ...io.sources import open_source
 from ...matching.pipeline import is_row_local, match_rows
-from ...matching.setup import prepare
+from ...matching.setup import set_up
 from ..executor import progress_bar, run_tasks
 from .plan import Plan, input_band, map_band, parse_size, plan
 from .tasks import create_store, filter_stripe, match_stripe, store_blocks
@@ -102,7 +102,7 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
     """
     if config is not None and options:
         raise TypeError("give match_tiled its options or a resolved config, not both")
-    opts = resolve(**options) if config is None else config
+    config = resolve(**options) if config is None else config
     output = Path(output)
     check_target(output, "output", folder_ok=output.suffix.lower() == ".zarr")
     if confidence is not None:
@@ -113,7 +113,7 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
     if confidence is not None and Path(confidence).is_symlink():
         confidence = Path(os.path.realpath(confidence))
     format_of(output, "stripes")
-    check_range(output, opts["dmax"], opts["dmin"])
+    check_range(output, config.dmax, config.dmin)
     if confidence is not None:
         format_of(confidence, "confidence")
     if client is not None and not all(isinstance(p, (str, Path)) for p in (left, right)):
@@ -125,14 +125,14 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
     height, width = left.shape
     layout = []  # the plan, once made: tau auto samples each row from its own band
 
-    def make_plan(resolved):
-        layout.append(plan(height, width, resolved, limit, stripe_rows,
+    def make_plan(decided):
+        layout.append(plan(height, width, decided, limit, stripe_rows,
                            colour=left.colour or right.colour,
                            resident=left.resident_bytes + right.resident_bytes))
         return layout[0]
 
     def shrunk(f):
-        from ...matching.autorange import shrink
+        from ...matching.disparity_range import shrink
 
         def small(source):  # whole blocks of f rows, a band at a time
             band = f * max(1, 2**20 // (f * width))
@@ -151,13 +151,13 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
                                     stages)[2].min_cost)
         return np.vstack(found)
 
-    ready = prepare(opts, (height, width), left.dtype, right=(right.shape, right.dtype),
-                    sample_min_cost=sample_min_cost, make_plan=make_plan,
-                    confidence=confidence is not None, shrunk=shrunk)
+    ready = set_up(config, (height, width), left.dtype, right=(right.shape, right.dtype),
+                   sample_min_cost=sample_min_cost, make_plan=make_plan,
+                   confidence=confidence is not None, shrunk=shrunk)
     layout = ready.plan
     start_time = time.perf_counter()
     totals = _run_passes(left, right, output, confidence, preview, layout, ready.args,
-                         ready.stages, client, progress)
+                         ready.config.stages, client, progress)
     return TiledResult(output, (height, width), layout, totals.pop("evaluated"),
                        totals.pop("candidates"), ready.settings,
                        time.perf_counter() - start_time, ready.compile_seconds,

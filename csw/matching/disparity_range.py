@@ -1,5 +1,8 @@
-"""A disparity range found from the pair itself (``dmax="auto"``, ``dmin="auto"``).
+"""The disparity range a match searches, decided in one place (:func:`decide`): as given,
+from the calibration's ndisp, the defaults, or found from the pair itself
+(``dmax="auto"``, ``dmin="auto"``), with where it came from.
 
+Found from the pair:
 The pair is shrunk by box averaging (a power-of-two factor, at least 2, that brings its
 width to SMALL_WIDTH or less), the small pair is matched with the accurate pipeline
 (census, the left-right check, speckle removal: only confident disparities survive) over
@@ -12,6 +15,9 @@ import math
 
 import numpy as np
 
+from ..config.params import resolve
+from .pipeline import run as run_pipeline
+
 # Chosen once, over every registered dataset (tests/library/test_autorange.py): the
 # range covers each ground truth's 99th percentile and moves density and bad-2 by under
 # half a point against the dataset's own range.
@@ -19,7 +25,35 @@ SMALL_WIDTH = 256
 LOW, HIGH = 0.5, 99.5  # percentiles of the small pair's confident disparities
 MARGIN = 0.08  # of the found extreme, plus PAD small-pair pixels
 PAD = 0.25
-UNIQUE = 5  # percent: StereoBM's uniqueness ratio, on the small pair
+DISTINCT = 5  # percent: StereoBM's uniqueness ratio, on the small pair
+
+
+def decide(config, width, calibration=None, shrunk=None):
+    """``config`` (csw.config.params.Config) with its range decided for a pair ``width``
+    wide, and ``range_source`` saying where it came from:
+
+      given                 dmin or dmax given by the caller (kept as resolved)
+      ndisp of FILE         no dmax given: the calibration's ndisp (below the width)
+      default               neither: the option table's
+      auto                  "auto" for a bound: found from the pair, ``shrunk(f)`` giving
+                            it shrunk f times (csw.matching.disparity_range.shrink); a
+                            bound given beside it is kept
+
+    Without ``shrunk``, an "auto" bound stays "auto" (the caller finds it once it has the
+    pixels)."""
+    if not config.range_known:
+        if shrunk is None:
+            return config
+        f = factor(width)
+        low, high = estimate(*shrunk(f), f, width,
+                             None if config.dmin == "auto" else config.dmin,
+                             None if config.dmax == "auto" else config.dmax,
+                             config.threads)
+        return config.replace(dmin=low, dmax=high, range_source="auto")
+    if calibration is not None and calibration.ndisp and "dmax" not in config.given:
+        return config.replace(dmax=min(calibration.ndisp - 1, width - 1),
+                              range_source=f"ndisp of {calibration.source}")
+    return config
 
 
 def factor(width):
@@ -42,8 +76,6 @@ def estimate(small_left, small_right, f, width, dmin=None, dmax=None, threads=No
     """(dmin, dmax) for the full pair (``width`` wide) from its f-times shrunk images;
     a bound given (not None) is kept as given.  ValueError when the small pair yields no
     confident disparity to go by."""
-    from .matcher import match
-
     small_width = small_left.shape[1]
     low = -(small_width // 4) if dmin is None else math.floor(dmin / f)
     high = small_width // 2 if dmax is None else math.ceil(dmax / f)
@@ -52,8 +84,10 @@ def estimate(small_left, small_right, f, width, dmin=None, dmax=None, threads=No
         low = high
     # Only confident matches: the accurate pipeline's checks, and distinct ones (a tie
     # over the whole range, as on a featureless pair, says nothing of it).
-    found = match(small_left, small_right, preset="accurate", dmin=low, dmax=high,
-                  uniqueness_ratio=UNIQUE, threads=threads).disparity
+    config = resolve(preset="accurate", dmin=low, dmax=high, uniqueness_ratio=DISTINCT,
+                     threads=threads)
+    found = run_pipeline(small_left, small_right, dict(config.kernel_args(), csw=False, tau=-1),
+                         config.stages)[0]
     values = found[np.isfinite(found)]
     if values.size < 0.01 * found.size:
         raise ValueError("the pair gives too few confident matches to find a disparity "
