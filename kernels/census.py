@@ -56,9 +56,9 @@ def census_transform(image, size, threads=None, pad=0, reverse=False, out=None, 
     edges = runtime.even_split(height, count)
 
     def stripe(i, stop):
-        planes = np.empty((len(places) // 8, width), np.uint8)
-        return run([padded, codes, planes, places],
-                   [size, edges[i], edges[i + 1], pad, int(reverse)])
+        return run(image_p=padded, codes=codes,
+                   planes=np.empty((len(places) // 8, width), np.uint8), places=places,
+                   size=size, y0=edges[i], y1=edges[i + 1], pad=pad, reverse=int(reverse))
 
     runtime.run_stripes(stripe, count, count, work)
     if pad:  # the rows beyond the image: copies of the first and last rows' codes

@@ -158,16 +158,21 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     wp = left_p.shape[1]
     never = np.iinfo(acc).max
 
+    second, prev, nxt, right_disp = maps
+
     def stripe(i, stop):
         # Each stripe owns its scratch, allocated in its own thread.
-        scratch = [np.empty((wp, ndisp), acc), np.empty(ndisp, acc),
-                   np.empty(width + shift, np.int32), np.empty(width + shift, acc),
-                   np.empty(width + shift, np.int16)]
         y0, y1 = stripes[i]
-        return run([left_p, right_rev, *scratch, disp, min_cost, *maps, lr_valid, evaluated,
-                    stop],
-                   [s.window, s.dmin, s.dmax, s.tau, s.rule, s.csw_margin, s.slack, y0, y1,
-                    never, s.right_map, s.lr_check])
+        return run(left_p=left_p, right_rev=right_rev,
+                   col_sums=np.empty((wp, ndisp), acc), row_sums=np.empty(ndisp, acc),
+                   claims=np.empty(width + shift, np.int32),
+                   right_best=np.empty(width + shift, acc),
+                   right_d=np.empty(width + shift, np.int16),
+                   disp=disp, min_cost=min_cost, second=second, prev=prev, next=nxt,
+                   right_disp=right_disp, lr_valid=lr_valid, evaluated=evaluated, stop=stop,
+                   window=s.window, dmin=s.dmin, dmax=s.dmax, tau=s.tau, rule=s.rule,
+                   csw_margin=s.csw_margin, slack=s.slack, y0=y0, y1=y1, never=never,
+                   keep_right=s.right_map, lr_limit=s.lr_check)
 
     runtime.run_stripes(stripe, len(stripes), n_threads, work)
     if rows.size != height:  # only the sampled rows were computed

@@ -18,17 +18,19 @@ from .workspace import empty
 SPECKLE_WORK = 25
 
 
-def _by_rows(kind, arrays, height, extra=(), scratch=None, threads=None, per_pixel=8):
+def _by_rows(kind, arguments, height, scratch=None, threads=None, per_pixel=8):
     """Run a row-local filter over stripes of rows, one per thread (``threads``: as for
-    csw.match); per_pixel: its work per pixel in runtime.DIRECT_WORK's units."""
+    csw.match), with its ``arguments`` by name but the stripe's rows (y0, y1) and the
+    ``scratch`` arrays each stripe makes (name -> a function making one); per_pixel: its
+    work per pixel in runtime.DIRECT_WORK's units."""
     run = native.entry("filters", (kind,))
-    work = arrays[0].size * per_pixel
+    work = arguments["disp"].size * per_pixel
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)
 
     def stripe(i, stop):
-        more = [scratch()] if scratch else []
-        return run([*arrays, *more], [edges[i], edges[i + 1], *extra])
+        made = {name: make() for name, make in (scratch or {}).items()}
+        return run(**arguments, **made, y0=edges[i], y1=edges[i + 1])
 
     runtime.run_stripes(stripe, count, count, work)
 
@@ -44,8 +46,8 @@ def lr_consistent(disp, right_disp, limit, invalid=-1, workspace=None, threads=N
     disp, right_disp = np.ascontiguousarray(disp), np.ascontiguousarray(right_disp)
     valid = empty(workspace, "lr-valid", disp.shape, np.uint8)
     # About 1.8 ns a pixel in one thread: 10 units, parallel from about 5 MP up.
-    _by_rows("lr", [disp, right_disp, valid], disp.shape[0], [int(limit), int(invalid)],
-             threads=threads, per_pixel=10)
+    _by_rows("lr", dict(disp=disp, right_disp=right_disp, valid=valid, limit=int(limit),
+                        invalid=int(invalid)), disp.shape[0], threads=threads, per_pixel=10)
     return valid.view(np.bool_)
 
 
@@ -75,8 +77,9 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None):
 
     def step(number, i, joins=none):  # see jit/filters.py, speckle
         rows = [np.empty(width, np.int32) for _ in range(2)]
-        return run([disp, small, parent, size, first, *rows, limit, joins],
-                   [number, edges[i], edges[i + 1], int(max_size)])
+        return run(disp=disp, small=small, parent=parent, size=size, first=first,
+                   here=rows[0], above=rows[1], max_diff=limit, edges=joins, step=number,
+                   y0=edges[i], y1=edges[i + 1], max_size=int(max_size))
 
     runtime.run_stripes(lambda i, stop: step(0, i), count, count, work)
     if count > 1:
@@ -90,8 +93,8 @@ def median_valid(disp, size, threads=None):
     size x size window (the lower middle for an even count); invalid pixels stay NaN."""
     disp = np.ascontiguousarray(disp, np.float32)
     out = np.empty_like(disp)
-    _by_rows("median", [disp, out], disp.shape[0], [int(size)],
-             scratch=lambda: np.empty(size * size, np.float32), threads=threads)
+    _by_rows("median", dict(disp=disp, out=out, size=int(size)), disp.shape[0],
+             scratch={"window": lambda: np.empty(size * size, np.float32)}, threads=threads)
     return out
 
 
@@ -102,7 +105,7 @@ def fill_background(disp, threads=None):
     devkit's interpolation, used by the Middlebury kit for sparse results too)."""
     disp = np.ascontiguousarray(disp, np.float32)
     out = np.empty_like(disp)
-    _by_rows("fill", [disp, out], disp.shape[0], threads=threads)
+    _by_rows("fill", dict(disp=disp, out=out), disp.shape[0], threads=threads)
     return out
 
 

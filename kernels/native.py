@@ -27,16 +27,17 @@ import json
 import os
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from .signature import Signature, spec_of
 
 JIT_DISABLED = os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
 # Every source the compiled code can depend on: the workers and what they import (the
 # Numba option sets, the contract's constants), so any change gives a new cache folder.
 KERNEL_SOURCES = Path(__file__).parent
-COMPILED_SOURCES = ("jit/*.py", "config.py", "contract.py")
+COMPILED_SOURCES = ("jit/*.py", "config.py", "contract.py", "signature.py")
 
 # Seconds Numba takes to compile each kernel's entry on the machines csw was measured on
 # (2-core AMD EPYC); the notice before a compile sums them for what is missing.
@@ -47,35 +48,23 @@ START_SECONDS = 1.0  # importing Numba and its first compile's set-up
 STATS = {"loaded": 0, "compiled": 0, "compile_seconds": 0.0, "load_seconds": 0.0}
 
 
-@dataclass(frozen=True)
-class Spec:
-    """What a jit module builds for a variant: ``worker(*arrays, scalars) -> int`` (a
-    Numba function, or plain Python with the JIT off), the (dtype, ndim) of each array
-    argument, and how many int64 scalars follow them."""
-
-    worker: object
-    arrays: tuple
-    scalars: int
-
-
 class Entry:
-    """A loaded kernel entry: ``entry(arrays, scalars)`` runs it.  arrays: C-contiguous
-    numpy arrays of the spec's dtypes and dimensions; scalars: ints."""
+    """A loaded kernel entry: ``entry(**arguments)`` runs it, every array and scalar of
+    its signature (kernels/signature.py) by name.  Arrays: C-contiguous numpy arrays of
+    the signature's dtypes and dimensions; scalars: ints."""
 
-    def __init__(self, key, spec, function):
-        self.key, self.spec, self.function = key, spec, function
+    def __init__(self, key, signature, function, worker=None):
+        self.key, self.signature, self.function = key, signature, function
+        self.worker = worker  # the plain-Python worker, with the JIT off
 
-    def __call__(self, arrays, scalars):
-        spec = self.spec
-        if len(arrays) != len(spec.arrays) or len(scalars) != spec.scalars:
-            raise TypeError(f"kernel {self.key} takes {len(spec.arrays)} arrays and "
-                            f"{spec.scalars} scalars")
-        for i, (array, (dtype, ndim)) in enumerate(zip(arrays, spec.arrays, strict=True)):
-            if array.dtype != dtype or array.ndim != ndim or not array.flags.c_contiguous:
-                raise TypeError(f"kernel {self.key}: array {i} must be C-contiguous {dtype} "
-                                f"with {ndim} dimensions, got {array.dtype} {array.shape}")
+    def __call__(self, **arguments):
+        arrays, scalars = self.signature.ordered(arguments, self.key)
+        for array, a in zip(arrays, self.signature.arrays, strict=True):
+            if array.dtype != a.dtype or array.ndim != a.ndim or not array.flags.c_contiguous:
+                raise TypeError(f"kernel {self.key}: {a.name} must be C-contiguous {a.dtype} "
+                                f"with {a.ndim} dimensions, got {array.dtype} {array.shape}")
         if self.function is None:  # NUMBA_DISABLE_JIT: the worker is plain Python
-            return int(spec.worker(*arrays, np.array(scalars, np.int64)))
+            return int(self.worker(*arrays, np.array(scalars, np.int64)))
         pointers = (ctypes.c_void_p * max(len(arrays), 1))(*map(_address, arrays))
         dims = [d for a in arrays for d in a.shape]
         dims = (ctypes.c_int64 * max(len(dims), 1))(*dims)
@@ -132,8 +121,9 @@ def ensure(wanted, progress=None, notice=True):
         return 0.0
     if JIT_DISABLED:
         for kernel, variant in todo:
+            spec = spec_of(kernel, variant)
             _LOADED[entry_key(kernel, variant)] = Entry(entry_key(kernel, variant),
-                                                        _spec(kernel, variant), None)
+                                                        spec.signature, None, spec.worker)
         return time.perf_counter() - start
     folder = cache_dir()
     found = {}  # key -> its verified description
@@ -151,7 +141,8 @@ def ensure(wanted, progress=None, notice=True):
     loading = time.perf_counter()
     for kernel, variant in todo:
         key = entry_key(kernel, variant)
-        _LOADED[key] = Entry(key, _spec_shape(found[key]), _load(folder, key, found[key]))
+        _LOADED[key] = Entry(key, Signature.from_description(found[key]),
+                             _load(folder, key, found[key]))
         STATS["loaded"] += 1
         if progress is not None and (kernel, variant) not in missing:
             progress(key, False)
@@ -262,24 +253,6 @@ def _compile_here(folder, share, parent):
         _store(Path(folder), entry_key(kernel, variant), symbol, code)
 
 
-# ---------------------------------------------------------------------------- the specs
-
-
-def _spec(kernel, variant):
-    """The Spec of a variant, with its Python worker (imports the jit module)."""
-    import importlib
-
-    module = importlib.import_module(f".jit.{kernel}", __package__)
-    return module.spec(*variant)
-
-
-def _spec_shape(meta):
-    """The Spec's array and scalar layout without importing Numba, from the description
-    stored beside the entry's code when it was compiled."""
-    arrays = tuple((np.dtype(d), n) for d, n in meta["arrays"])
-    return Spec(None, arrays, meta["scalars"])
-
-
 # ---------------------------------------------------------------------------- the cache
 
 
@@ -349,10 +322,11 @@ def _verified(folder, key, found, discard=False):
         code = code_path.read_bytes()
         intact = (isinstance(meta, dict) and isinstance(meta.get("symbol"), str)
                   and isinstance(meta.get("arrays"), list)
-                  and isinstance(meta.get("scalars"), int)
+                  and isinstance(meta.get("scalars"), list)
                   and isinstance(meta.get("imports"), list)
                   and meta.get("size") == len(code)
                   and meta.get("sha256") == hashlib.sha256(code).hexdigest()
+                  and Signature.from_description(meta) is not None
                   and _safe_mode(folder) and _safe_mode(meta_path) and _safe_mode(code_path))
     except (OSError, ValueError, TypeError):
         intact = False

@@ -119,12 +119,17 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     count = max(1, min(rows.size, n_threads * 4 if n_threads > 1 else 1))
     edges = runtime.even_split(rows.size, count)
 
+    second, prev, nxt, right_disp = maps
+
     def stripe(i, stop):
-        scratch = [np.empty(width, np.int32), np.empty(ndisp, np.int64),
-                   np.empty(width, np.int64)]
-        return run([left_p, right_p, rows, *scratch, disp, min_cost, *maps, evaluated, stop],
-                   [s.window, s.dmin, s.dmax, s.tau, s.rule, s.csw_margin, s.slack,
-                    edges[i], edges[i + 1]])
+        # Each stripe owns its scratch, allocated in its own thread.
+        return run(left_p=left_p, right_p=right_p, rows=rows,
+                   claims=np.empty(width, np.int32), costs=np.empty(ndisp, np.int64),
+                   right_best=np.empty(width, np.int64), disp=disp, min_cost=min_cost,
+                   second=second, prev=prev, next=nxt, right_disp=right_disp,
+                   evaluated=evaluated, stop=stop, window=s.window, dmin=s.dmin,
+                   dmax=s.dmax, tau=s.tau, rule=s.rule, csw_margin=s.csw_margin,
+                   slack=s.slack, i0=edges[i], i1=edges[i + 1])
 
     runtime.run_stripes(stripe, count, n_threads, work)
     plain = candidate_count(width, s.dmin, s.dmax) * rows.size

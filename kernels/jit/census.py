@@ -6,16 +6,18 @@ import numpy as np
 from numba import njit
 
 from ..config import SERIAL
+from ..signature import Signature, Spec, arg, scalar_index
 from .common import dtype_of
+
+# The scalars of a stripe (the entry's record; see kernels/signature.py).
+SC = scalar_index(("size", "y0", "y1", "pad", "reverse"))
 
 
 def spec(pixels, codes):
     """The worker for images of type ``pixels`` and codes of type ``codes``."""
-    from ..native import Spec
-
-    arrays = ((dtype_of(pixels), 2), (dtype_of(codes), 2), (np.dtype(np.uint8), 2),
-              (np.dtype(np.int64), 1))
-    return Spec(_make(dtype_of(codes).type), arrays, 5)
+    arrays = (arg("image_p", dtype_of(pixels), 2), arg("codes", dtype_of(codes), 2),
+              arg("planes", np.uint8, 2), arg("places", np.int64, 1))
+    return Spec(_make(dtype_of(codes).type), Signature(arrays, SC._fields))
 
 
 @njit(**SERIAL)
@@ -30,18 +32,20 @@ def _make(code):
 
     @njit(**SERIAL)
     def rows(image_p, codes, planes, places, sc):
-        """Codes of rows sc[1] <= y < sc[2] for a census window of side sc[0], written
-        into codes edge-padded by sc[3] columns each side (and rows, which the caller
-        fills) and, with sc[4], with the columns reversed: the layouts the engines read.
+        """Codes of rows y0 <= y < y1 for a census window of side ``size``, written into
+        codes edge-padded by ``pad`` columns each side (and rows, which the caller fills)
+        and, with ``reverse``, with the columns reversed: the layouts the engines read
+        (sc: SC).
 
         image_p: (H + size - 1, W + size - 1), edge-padded by size // 2.  codes: (H + 2p,
-        W + 2p) out, p = sc[3].  places: int64 (n,) the neighbours' places in the window,
+        W + 2p) out, p = pad.  places: int64 (n,) the neighbours' places in the window,
         in bit order, n a multiple of 8.  planes: uint8 (n // 8, W) scratch.  Each byte
         plane takes eight neighbours in one pass over the row (8-bit SIMD lanes; a pass
         per neighbour cost twice as long, in loop set-up); one pass then joins the planes
         into codes, the first plane most significant.
         """
-        size, y0, y1, pad, reverse = sc[0], sc[1], sc[2], sc[3], sc[4]
+        size, y0, y1, pad, reverse = sc[SC.size], sc[SC.y0], sc[SC.y1], sc[SC.pad], \
+            sc[SC.reverse]
         h = size // 2
         width = codes.shape[1] - 2 * pad
         groups = planes.shape[0]

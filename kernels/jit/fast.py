@@ -24,6 +24,7 @@ from numba import njit
 
 from ..config import SERIAL
 from ..contract import INVALID, NEG_INVALID, RULE_UNIQUE
+from ..signature import Signature, Spec, arg, scalar_index
 from .common import blocked, ctpop, dtype_of, is_distinct, lr_agrees, stop_requested
 
 # Disparity ranges up to this pick the minimum with packed keys (see select_row), with
@@ -33,28 +34,28 @@ from .common import blocked, ctpop, dtype_of, is_distinct, lr_agrees, stop_reque
 # 16.5, so the limit stays where 64-bit keys had put it.
 KEYED_RANGE = 128
 
-# The scalars every stripe takes, in order (the entry's record).
+# The scalars every stripe takes (the entry's record; see kernels/signature.py).
 SCALARS = ("window", "dmin", "dmax", "tau", "rule", "csw_margin", "slack", "y0", "y1",
            "never", "keep_right", "lr_limit")
+SC = scalar_index(SCALARS)
 
 
 def spec(cost, pixels, accumulator, csw, right_map, extras, negative=False):
     """The stripe worker of a variant.  cost: "sad", "ssd" or "shd" (census codes are
     compared with shd); pixels, accumulator: type names ("u8", "u16", "i32", ...);
     negative: the range starts below 0 (see _make)."""
-    from ..native import Spec
-
     pix, acc = dtype_of(pixels), dtype_of(accumulator)
-    i32, i64 = np.dtype(np.int32), np.dtype(np.int64)
-    arrays = ((pix, 2), (pix, 2),  # left_p, right_rev: (H + w - 1, Wp)
-              (acc, 2), (acc, 1),  # col_sums (Wp, D), row_sums (D,)
-              (i32, 1), (acc, 1), (np.dtype(np.int16), 1),  # claims, right_best, right_d (W,)
-              (i32, 2), (i64, 2),  # disp, min_cost (H, W)
-              (i64, 2), (i64, 2), (i64, 2), (i32, 2),  # second, prev, next, right_disp
-              (np.dtype(np.uint8), 2),  # lr_valid (H, W)
-              (i64, 1), (np.dtype(np.uint8), 1))  # evaluated (H,), stop (1,)
+    i16, i32, i64, u8 = (np.dtype(t) for t in (np.int16, np.int32, np.int64, np.uint8))
+    arrays = (arg("left_p", pix, 2), arg("right_rev", pix, 2),  # (H + w - 1, Wp)
+              arg("col_sums", acc, 2), arg("row_sums", acc, 1),  # (Wp, D), (D,) scratch
+              arg("claims", i32, 1), arg("right_best", acc, 1),  # (W + s,) scratch
+              arg("right_d", i16, 1),
+              arg("disp", i32, 2), arg("min_cost", i64, 2),  # (H, W) out
+              arg("second", i64, 2), arg("prev", i64, 2), arg("next", i64, 2),  # extras
+              arg("right_disp", i32, 2), arg("lr_valid", u8, 2),  # (H, W) or 1-row dummies
+              arg("evaluated", i64, 1), arg("stop", u8, 1))  # (H,), (1,)
     return Spec(_make(cost, acc.type, bool(csw), bool(right_map), bool(extras),
-                      bool(negative)), arrays, len(SCALARS))
+                      bool(negative)), Signature(arrays, SCALARS))
 
 
 def _make(cost, acc, csw, right_map, extras, negative):
@@ -138,8 +139,9 @@ def _make(cost, acc, csw, right_map, extras, negative):
         """
         width = disp_row.shape[0]
         ndisp = col_sums.shape[1]
-        w, dmin, tau, rule, csw_margin, slack = sc[0], sc[1], sc[3], sc[4], sc[5], sc[6]
-        keep_right, lr_limit = sc[10], sc[11]
+        w, dmin, tau, rule = sc[SC.window], sc[SC.dmin], sc[SC.tau], sc[SC.rule]
+        csw_margin, slack = sc[SC.csw_margin], sc[SC.slack]
+        keep_right, lr_limit = sc[SC.keep_right], sc[SC.lr_limit]
         shift = -dmin if negative else 0  # the right-pixel arrays' extra front entries
         if csw:
             claims_rev[:] = -1
@@ -316,9 +318,9 @@ def _make(cost, acc, csw, right_map, extras, negative):
         reversed B-map; right_best, right_d: (W,) reversed right-map scratch: all
         scratch of this stripe.  Maps not made are 1-row dummies, never written.
         """
-        w, dmin, y0, y1 = sc[0], sc[1], sc[7], sc[8]
-        never = acc(sc[9])
-        keep_right, lr_limit = sc[10], sc[11]
+        w, dmin, y0, y1 = sc[SC.window], sc[SC.dmin], sc[SC.y0], sc[SC.y1]
+        never = acc(sc[SC.never])
+        keep_right, lr_limit = sc[SC.keep_right], sc[SC.lr_limit]
         col_sums[:] = 0
         for a in range(w):  # the window of padded rows y0 .. y0 + w - 1, each added once
             columns_add(left_p[y0 + a], right_rev[y0 + a], col_sums, dmin)

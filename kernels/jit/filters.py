@@ -3,7 +3,7 @@ removal over regions of similar disparity (as OpenCV's filterSpeckles), a median
 valid pixels only, and the background fill of the Middlebury and KITTI kits.
 
 Maps are float32 (H, W) with NaN where invalid, save the left-right check's int32 maps.
-Row-local filters work on a stripe of rows (sc[0] <= y < sc[1]) so that stripes run in
+Row-local filters work on a stripe of rows (y0 <= y < y1) so that stripes run in
 parallel.  The speckle filter's regions span rows: its stripes find their own regions in
 parallel, one thread joins them across the stripes' edges, and the stripes mark the
 small ones in parallel.
@@ -13,39 +13,51 @@ import numpy as np
 from numba import njit
 
 from ..config import SERIAL
+from ..signature import Signature, Spec, arg, scalar_index
 from .common import lr_agrees
 
 F32, I32, I64, U8, F64 = (np.dtype(t) for t in (np.float32, np.int32, np.int64, np.uint8,
                                                  np.float64))
 
 
+# Each filter's scalars (the entries' records; see kernels/signature.py).
+LR = scalar_index(("y0", "y1", "limit", "invalid"))
+SPECKLE = scalar_index(("step", "y0", "y1", "max_size"))
+MEDIAN = scalar_index(("y0", "y1", "size"))
+FILL = scalar_index(("y0", "y1"))
+
+
 def spec(kind):
     """The worker of a filter: "lr", "speckle", "median" or "fill"."""
-    from ..native import Spec
-
-    return {
-        # disp, right_disp (H, W) int32; valid (H, W) uint8 out; sc: y0, y1, limit, invalid
-        "lr": Spec(lr_consistent, ((I32, 2), (I32, 2), (U8, 2)), 4),
-        # disp (H, W); small (H, W) uint8 out; parent, size (H*W,) int32; first (H,)
-        # int64; here, above (W,) int32 scratch; max_diff (1,) float64; edges (n,) int64;
-        # sc: step, y0, y1, max_size (see speckle)
-        "speckle": Spec(speckle, ((F32, 2), (U8, 2), (I32, 1), (I32, 1), (I64, 1),
-                                  (I32, 1), (I32, 1), (F64, 1), (I64, 1)), 4),
-        # disp, out (H, W); window (size*size,) scratch; sc: y0, y1, size
-        "median": Spec(median_valid, ((F32, 2), (F32, 2), (F32, 1)), 3),
-        # disp, out (H, W); sc: y0, y1
-        "fill": Spec(fill_background, ((F32, 2), (F32, 2)), 2),
-    }[kind]
+    workers = {
+        # the left-right check of a stripe of rows
+        "lr": (lr_consistent, (arg("disp", I32, 2), arg("right_disp", I32, 2),
+                               arg("valid", U8, 2)), LR),  # (H, W); valid out
+        # one step of the speckle filter (see speckle): parent, size (H*W,) the forest;
+        # first (H,) each row's first run; here, above (W,) scratch; max_diff (1,);
+        # edges (n,) the stripes' inner edges
+        "speckle": (speckle, (arg("disp", F32, 2), arg("small", U8, 2),
+                              arg("parent", I32, 1), arg("size", I32, 1),
+                              arg("first", I64, 1), arg("here", I32, 1),
+                              arg("above", I32, 1), arg("max_diff", F64, 1),
+                              arg("edges", I64, 1)), SPECKLE),
+        # disp, out (H, W); window (size*size,) scratch
+        "median": (median_valid, (arg("disp", F32, 2), arg("out", F32, 2),
+                                  arg("window", F32, 1)), MEDIAN),
+        "fill": (fill_background, (arg("disp", F32, 2), arg("out", F32, 2)), FILL),
+    }
+    worker, arrays, scalars = workers[kind]
+    return Spec(worker, Signature(arrays, scalars._fields))
 
 
 @njit(**SERIAL)
 def lr_consistent(disp, right_disp, valid, sc):
-    """valid[y, x] = 1 where d = disp[y, x] is valid (not sc[3], the maps' invalid value)
-    and its right pixel's own match, right_disp[y, x - d] (sc[3]: none), differs from it
-    by at most sc[2]; for the rows of the stripe."""
+    """valid[y, x] = 1 where d = disp[y, x] is valid (not invalid, the maps' invalid value)
+    and its right pixel's own match, right_disp[y, x - d] (invalid: none), differs from it
+    by at most limit; for the rows y0 <= y < y1 (sc: LR)."""
     width = disp.shape[1]
-    limit, invalid = sc[2], sc[3]
-    for y in range(sc[0], sc[1]):
+    limit, invalid = sc[LR.limit], sc[LR.invalid]
+    for y in range(sc[LR.y0], sc[LR.y1]):
         for x in range(width):
             d = disp[y, x]
             back = right_disp[y, x - d] if d != invalid else invalid
@@ -107,8 +119,8 @@ def _join_rows(disp, y, limit, here, above, parent, size):
 
 
 @njit(**SERIAL)
-def speckle_regions(disp, parent, size, first, here, above, max_diff, sc):
-    """The regions of a stripe of rows, sc[0] <= y < sc[1], on their own: a region is a
+def speckle_regions(disp, parent, size, first, here, above, max_diff, y0, y1):
+    """The regions of a stripe of rows, y0 <= y < y1, on their own: a region is a
     4-connected set of valid pixels whose neighbours differ by at most max_diff[0].
 
     Regions are found as runs joined into a union-find forest: each row's runs (see
@@ -119,7 +131,6 @@ def speckle_regions(disp, parent, size, first, here, above, max_diff, sc):
     """
     width = disp.shape[1]
     limit = max_diff[0]
-    y0, y1 = sc[0], sc[1]
     next_run = y0 * width
     for y in range(y0, y1):
         first[y] = next_run
@@ -150,14 +161,14 @@ def speckle_join(disp, parent, size, first, here, above, max_diff, edges):
 
 
 @njit(**SERIAL)
-def speckle_mark(disp, small, parent, size, first, max_diff, sc):
-    """small[y, x] = 1 for the valid pixels of rows sc[0] <= y < sc[1] whose region has
-    fewer than sc[2] pixels, once every region is whole: the rows' runs numbered again
+def speckle_mark(disp, small, parent, size, first, max_diff, y0, y1, max_size):
+    """small[y, x] = 1 for the valid pixels of rows y0 <= y < y1 whose region has
+    fewer than max_size pixels, once every region is whole: the rows' runs numbered again
     from first, in one pass with the marking (a run's verdict taken where it starts).
     The roots are found without shortening paths, so that stripes may run at once: they
     only read the forest."""
-    limit, max_size = max_diff[0], sc[2]
-    for y in range(sc[0], sc[1]):
+    limit = max_diff[0]
+    for y in range(y0, y1):
         row = disp[y]
         previous = np.float32(np.nan)
         run = first[y] - 1
@@ -178,26 +189,27 @@ def speckle_mark(disp, small, parent, size, first, max_diff, sc):
 
 @njit(**SERIAL)
 def speckle(disp, small, parent, size, first, here, above, max_diff, edges, sc):
-    """The speckle filter's three steps in one entry (one compile, not three): sc[0] = 0
+    """The speckle filter's three steps in one entry (one compile, not three): step 0
     finds a stripe's regions (speckle_regions), 1 joins the stripes (speckle_join), 2
-    marks a stripe's small regions (speckle_mark); sc[1:] are y0, y1, max_size."""
-    step = sc[0]
+    marks a stripe's small regions (speckle_mark); sc: SPECKLE."""
+    step, y0, y1 = sc[SPECKLE.step], sc[SPECKLE.y0], sc[SPECKLE.y1]
     if step == 0:
-        return speckle_regions(disp, parent, size, first, here, above, max_diff, sc[1:3])
+        return speckle_regions(disp, parent, size, first, here, above, max_diff, y0, y1)
     if step == 1:
         return speckle_join(disp, parent, size, first, here, above, max_diff, edges)
-    return speckle_mark(disp, small, parent, size, first, max_diff, sc[1:])
+    return speckle_mark(disp, small, parent, size, first, max_diff, y0, y1,
+                        sc[SPECKLE.max_size])
 
 
 @njit(**SERIAL)
 def median_valid(disp, out, window, sc):
     """out[y, x]: for each valid pixel, the median of the valid pixels in its size x size
-    window (the lower middle for an even count); NaN for invalid pixels; rows sc[0] to
-    sc[1] with size sc[2].  window: (size * size,) scratch, kept sorted by insertion."""
+    window (the lower middle for an even count); NaN for invalid pixels; rows y0 to y1
+    (sc: MEDIAN).  window: (size * size,) scratch, kept sorted by insertion."""
     height, width = disp.shape
-    size = sc[2]
+    size = sc[MEDIAN.size]
     h = size // 2
-    for y in range(sc[0], sc[1]):
+    for y in range(sc[MEDIAN.y0], sc[MEDIAN.y1]):
         for x in range(width):
             if np.isnan(disp[y, x]):
                 out[y, x] = np.nan
@@ -219,13 +231,13 @@ def median_valid(disp, out, window, sc):
 
 @njit(**SERIAL)
 def fill_background(disp, out, sc):
-    """out: disp with every invalid pixel filled, for rows sc[0] to sc[1]: along each row,
+    """out: disp with every invalid pixel filled, for rows y0 to y1 (sc: FILL): along each row,
     an invalid pixel takes the smaller of the nearest valid disparities to its left and
     right (the background side); at a row's end, the one valid neighbour; a row with none
     becomes 0 (the KITTI devkit's interpolation, used by the Middlebury kit for sparse
     results too)."""
     width = disp.shape[1]
-    for y in range(sc[0], sc[1]):
+    for y in range(sc[FILL.y0], sc[FILL.y1]):
         last = np.nan  # the nearest valid value to the left
         x = 0
         while x < width:

@@ -11,26 +11,29 @@ from numba import njit
 
 from ..config import SERIAL
 from ..contract import INVALID, NEG_INVALID, RULE_UNIQUE
+from ..signature import Signature, Spec, arg, scalar_index
 from .common import blocked, ctpop, dtype_of, is_distinct, stop_requested
 
-# The scalars every stripe takes, in order.
+# The scalars every stripe takes (the entry's record; see kernels/signature.py).
 SCALARS = ("window", "dmin", "dmax", "tau", "rule", "csw_margin", "slack", "i0", "i1")
+SC = scalar_index(SCALARS)
 
 
 def spec(cost, pixels, csw, right_map, extras, negative=False):
     """The stripe worker of a variant.  cost: "sad", "ssd" or "shd"; pixels: the padded
     images' type name ("u16" for 8- and 16-bit images, the codes' type for census)."""
-    from ..native import Spec
-
     pix = dtype_of(pixels)
-    i32, i64 = np.dtype(np.int32), np.dtype(np.int64)
-    arrays = ((pix, 2), (pix, 2), (i64, 1),  # left_p, right_p (H + w - 1, W + w - 1), rows
-              (i32, 1), (i64, 1), (i64, 1),  # claims (W,), costs (D,), right_best (W,)
-              (i32, 2), (i64, 2),  # disp, min_cost (n, W)
-              (i64, 2), (i64, 2), (i64, 2), (i32, 2),  # second, prev, next, right_disp
-              (i64, 1), (np.dtype(np.uint8), 1))  # evaluated (n,), stop (1,)
+    i32, i64, u8 = (np.dtype(t) for t in (np.int32, np.int64, np.uint8))
+    arrays = (arg("left_p", pix, 2), arg("right_p", pix, 2),  # (H + w - 1, W + w - 1)
+              arg("rows", i64, 1),  # (n,) the rows to match
+              arg("claims", i32, 1), arg("costs", i64, 1),  # (W,), (D,) scratch
+              arg("right_best", i64, 1),  # (W,) scratch
+              arg("disp", i32, 2), arg("min_cost", i64, 2),  # (n, W) out
+              arg("second", i64, 2), arg("prev", i64, 2), arg("next", i64, 2),  # extras
+              arg("right_disp", i32, 2),  # (n, W) or 1-row dummies
+              arg("evaluated", i64, 1), arg("stop", u8, 1))  # (n,), (1,)
     return Spec(_make(cost, bool(csw), bool(right_map), bool(extras), bool(negative)),
-                arrays, len(SCALARS))
+                Signature(arrays, SCALARS))
 
 
 def _make(cost, csw, right_map, extras, negative):
@@ -73,8 +76,8 @@ def _make(cost, csw, right_map, extras, negative):
             out with right_map (see MatchResult).
         """
         width = disp_row.shape[0]
-        w, dmin, dmax, tau, rule, csw_margin, slack = (sc[0], sc[1], sc[2], sc[3], sc[4],
-                                                       sc[5], sc[6])
+        w, dmin, dmax, tau = sc[SC.window], sc[SC.dmin], sc[SC.dmax], sc[SC.tau]
+        rule, csw_margin, slack = sc[SC.rule], sc[SC.csw_margin], sc[SC.slack]
         if csw:
             claims[:] = -1
         if right_map:
@@ -130,7 +133,7 @@ def _make(cost, csw, right_map, extras, negative):
         started once stop[0] is set are skipped (an interrupted run's maps are unused).
         claims, costs, right_best: this stripe's scratch.  Maps not made are 1-row
         dummies, never written."""
-        for i in range(sc[7], sc[8]):
+        for i in range(sc[SC.i0], sc[SC.i1]):
             if stop_requested(stop):
                 return 0
             e = i if extras else 0

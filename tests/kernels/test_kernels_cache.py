@@ -149,3 +149,27 @@ def test_an_entry_writable_by_others_is_not_loaded(tmp_path):
     os.chmod(code, 0o666)
     assert map_probe(tmp_path)["compiled"] == 1
     assert not next(tmp_path.rglob("window-*.o")).stat().st_mode & 0o022
+
+
+def test_numba_s_private_attributes_are_read_in_one_place_that_fails_in_one_line():
+    """The cache needs Numba internals that have no public API: they are read in
+    jit/build.py's numba_internals alone, which works with this Numba and, with one that
+    changed them, raises one line naming the version."""
+    from pathlib import Path
+
+    from csw.kernels.jit import build
+
+    _, compiled = build._compiled("filters", ("fill",))
+    code, imports, _ = build.numba_internals(compiled)
+    assert isinstance(code, bytes) and code and all(isinstance(n, str) for n in imports)
+
+    class Changed:  # a cfunc of a Numba without _library
+        native_name = "entry"
+
+    with pytest.raises(RuntimeError, match=r"can't read Numba .*'s compiled code") as info:
+        build.numba_internals(Changed())
+    assert "\n" not in str(info.value)
+    root = Path(build.__file__).parents[1]
+    readers = sorted(p.relative_to(root).as_posix() for p in root.rglob("*.py")
+                     if "._library" in p.read_text() or "_final_module" in p.read_text())
+    assert readers == ["jit/build.py"]
