@@ -212,8 +212,8 @@ def kernel_costs(repeat):
     left, right, _, _ = render(1920, 1080, dmax=255, seed=0)
     args = dict(engine="fast", window=9, dmin=0, dmax=255, threads=1)
     runs = {"SAD": dict(cost="sad"), "SAD + LR check": dict(cost="sad", lr_check=2),
-            "census 5x5": dict(cost="census", census_window=5),
-            "census 7x7": dict(cost="census", census_window=7),
+            "census 5x5": dict(cost="census", census_window=5, census_pattern="dense"),
+            "census 7x7": dict(cost="census", census_window=7, census_pattern="dense"),
             "census sparse 9x9": dict(cost="census", census_window=9,
                                       census_pattern="sparse"),
             "census sparse 9x9 + LR check": dict(cost="census", census_window=9,

@@ -28,7 +28,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import csw  # noqa: E402
-from csw.config.params import resolve, stages  # noqa: E402
+from csw.config.params import resolve  # noqa: E402
 from csw.data.synth import render, write_tiff_scene  # noqa: E402
 from csw.io import write_disparity, write_png  # noqa: E402
 from csw.matching.pipeline import filter_overlap  # noqa: E402
@@ -281,7 +281,7 @@ of map each side.
                        f"{s:.3f}", f"{r:.2f}x") for p, label, n, share, fo, s, r
                       in stripes]))
     worst = max(r for *_, r in stripes)
-    speckle_rows = filter_overlap(stages(resolve()))
+    speckle_rows = filter_overlap(resolve().stages)
     default_accurate = next(r for p, label, *_, r in stripes
                             if p == "accurate" and label.startswith("stripes, default"))
     out.append(f"""

@@ -93,9 +93,11 @@ def mechanism(name, tau_factor=1.0):
 ABLATION = [
     ("literal, auto τ (the paper's rule)", dict(rule="literal"), "auto"),
     ("literal, auto τ, claims skip the next pixel", dict(rule="literal", slack=1), "auto"),
-    ("distinct claims only (margin 12%), literal binding", dict(rule="unique", slack=0),
+    ("distinct claims only (margin 12%), literal binding",
+     dict(rule="unique", csw_margin=12, slack=0),
      "none"),
-    ("unique: distinct claims + claims skip the next pixel", dict(rule="unique"), "none"),
+    ("unique: distinct claims + claims skip the next pixel",
+     dict(rule="unique", csw_margin=12), "none"),
 ]
 
 WHY = """

@@ -3,10 +3,11 @@ presets over it.  ``csw.match``, the tiled and batch entries, the experiments an
 command's options read this table, so a default, a choice list or a range is written
 here once (the CLI builds its Click options from it: csw_cli/options.py).
 
-``resolve(**given)`` turns what a caller gave into the full option set: the given values
-over the preset's over the defaults, each checked and normalised (``"off"`` becomes None,
-``"3"`` becomes 3, a tau word stays a word).  Unknown names are a TypeError, bad values a
-ValueError whose message says how to fix them.
+``resolve(**given)`` turns what a caller gave into a :class:`Config`, the one typed record
+everything below the edge takes: the given values over the preset's over the defaults,
+each checked and normalised (``"off"`` becomes None, ``"3"`` becomes 3, a tau word stays a
+word).  Unknown names are a TypeError, bad values a ValueError whose message says how to
+fix them.
 """
 
 import math

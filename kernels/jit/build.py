@@ -31,18 +31,34 @@ def wrapper_source(spec):
 def _compiled(kernel, variant):
     """A variant's spec and its entry compiled by Numba."""
     spec = spec_of(kernel, variant)
+    return spec, compile_spec(spec, f"{kernel} {variant}")
+
+
+def compile_spec(spec, name):
+    """The C-callable entry of a Spec, compiled by Numba (a cfunc)."""
     namespace = {"carray": carray, "np": np, "worker": spec.worker}
     namespace.update({f"T{i}": a.dtype.type for i, a in enumerate(spec.signature.arrays)})
-    exec(compile(wrapper_source(spec), f"<csw kernel {kernel}>", "exec"), namespace)
-    return spec, cfunc(SIGNATURE, **ENTRY)(namespace["entry"])
+    exec(compile(wrapper_source(spec), f"<csw kernel {name}>", "exec"), namespace)
+    return cfunc(SIGNATURE, **ENTRY)(namespace["entry"])
 
 
 def compile_entry(kernel, variant):
     """(symbol, (description, object code)) of a variant's entry."""
     spec, compiled = _compiled(kernel, variant)
+    return compiled.native_name, stored_form(spec, compiled, f"{kernel} {variant}")
+
+
+def stored_form(spec, compiled, name):
+    """(description, object code) of a compiled entry, as the cache stores it.  An entry
+    whose worker allocates (it imports Numba's allocator) is refused: the loaded code
+    has no Numba runtime to allocate with, and the workers' layer must not allocate."""
     code, imports, _ = numba_internals(compiled)
+    allocators = [n for n in imports if n.startswith(("NRT_MemInfo_alloc", "NRT_Allocate"))]
+    if allocators:
+        raise RuntimeError(f"csw's kernel {name} allocates ({', '.join(allocators)}); a "
+                           "worker must take its scratch from its driver")
     description = dict(spec.signature.describe(), numba=numba.__version__, imports=imports)
-    return compiled.native_name, (description, code)
+    return description, code
 
 
 def numba_internals(compiled):

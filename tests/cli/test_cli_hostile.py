@@ -485,11 +485,11 @@ def test_empty_or_bad_variables_are_one_line(tmp_path, pair_files, monkeypatch):
     result = invoke("match", *pair_files, "-o", "d.pfm", "--dmax", 8)
     assert one_line(result) and "NUMBA_NUM_THREADS" in result.output
     monkeypatch.delenv("NUMBA_NUM_THREADS")
-    from csw.kernels import native
+    from csw.kernels import store
 
     monkeypatch.setenv("CSW_KERNEL_CACHE", "")
-    assert native.cache_dir().parent != Path("")
-    assert not str(native.cache_dir()).startswith(native._fingerprint())
+    assert store.cache_dir().parent != Path("")
+    assert not str(store.cache_dir()).startswith(store._fingerprint())
 
 
 def test_a_full_standard_output_is_one_line():

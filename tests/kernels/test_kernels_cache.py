@@ -38,7 +38,7 @@ TWO_ENTRIES = """
 import json, sys, numpy as np
 from csw import kernels
 if sys.argv[1] == "broken":  # every compile worker fails at once
-    kernels.native._WORKER = "import sys; sys.exit(3)"
+    kernels.compiler._WORKER = "import sys; sys.exit(3)"
 rng = np.random.default_rng(5)
 left, right = (rng.integers(0, 256, (12, 20), dtype=np.uint8) for _ in range(2))
 wanted = [e for cost in ("sad", "census") for e in kernels.entries(
@@ -173,3 +173,68 @@ def test_numba_s_private_attributes_are_read_in_one_place_that_fails_in_one_line
     readers = sorted(p.relative_to(root).as_posix() for p in root.rglob("*.py")
                      if "._library" in p.read_text() or "_final_module" in p.read_text())
     assert readers == ["jit/build.py"]
+
+
+PROBE_WORKER = """
+import sys
+import numpy as np
+from numba import njit
+from csw.kernels import store
+from csw.kernels.jit import build
+from csw.kernels.signature import Signature, Spec, arg
+
+@njit
+def worker(a, sc):
+    if sc[0] == 1:
+        BUG
+    a[0] += 7
+    return 0
+
+spec = Spec(worker, Signature((arg("a", np.int64, 1),), ("go",)))
+compiled = build.compile_spec(spec, "probe")
+try:
+    store.store(__import__("pathlib").Path(sys.argv[1]), "probe", compiled.native_name,
+                build.stored_form(spec, compiled, "probe"))
+except RuntimeError as exc:
+    print(exc)
+"""
+PROBE_CALL = """
+import sys
+import numpy as np
+from pathlib import Path
+from csw.kernels import loader, native, store
+from csw.kernels.signature import Signature
+
+folder, found = Path(sys.argv[1]), {}
+assert store.verified(folder, "probe", found)
+entry = native.Entry("probe", Signature.from_description(found["probe"]),
+                     loader.load(folder, "probe", found["probe"]))
+a = np.zeros(1, np.int64)
+entry(a=a, go=0)
+try:
+    entry(a=a, go=1)
+except RuntimeError as exc:
+    print("numba" in sys.modules, a[0], exc)
+"""
+
+
+def test_a_worker_that_raises_is_an_error_not_an_abort(tmp_path):
+    """Loaded without Numba, an entry that reaches Numba's raise path returns, and the
+    call raises a RuntimeError saying so (its helpers once pointed at abort())."""
+    run = [sys.executable, "-c"]
+    raises = PROBE_WORKER.replace("BUG", "raise ValueError(\"a worker's bug\")")
+    subprocess.run([*run, raises, str(tmp_path)], check=True)
+    called = subprocess.run([*run, PROBE_CALL, str(tmp_path)], capture_output=True,
+                            text=True, timeout=60)
+    assert called.returncode == 0, called.stderr
+    assert called.stdout.startswith("False 7 csw's kernel probe failed: it reached Numba's")
+
+
+def test_a_worker_that_allocates_is_refused_when_it_compiles(tmp_path):
+    """No Numba runtime is loaded with the entries, so none may allocate: the compile
+    refuses one that does, in one line."""
+    script = PROBE_WORKER.replace("BUG", "a[0] = np.empty(sc[0]).size")
+    done = subprocess.run([sys.executable, "-c", script, str(tmp_path)],
+                          capture_output=True, text=True, check=True)
+    assert "csw's kernel probe allocates (NRT_MemInfo_alloc" in done.stdout
+    assert not list(tmp_path.iterdir())

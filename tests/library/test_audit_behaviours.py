@@ -105,20 +105,21 @@ def test_new_files_get_the_mode_a_plain_write_gives(tmp_path, umask):
     assert (tmp_path / "f.pfm").stat().st_mode & 0o777 == 0o666 & ~umask
 
 
-@pytest.mark.parametrize("source", ["jit/fast.py", "contract.py", "config.py"])
+@pytest.mark.parametrize("source", ["jit/fast.py", "contract.py", "config.py",
+                                    "signature.py"])
 def test_the_cache_fingerprint_follows_every_source_the_workers_use(tmp_path, monkeypatch,
                                                                       source):
     """A change to a worker's source, or to a module the workers import, gives another
     cache folder, even when no file name changes."""
-    from csw.kernels import native
+    from csw.kernels import store
 
     copy = tmp_path / "kernels"
-    shutil.copytree(native.KERNEL_SOURCES, copy,
+    shutil.copytree(store.KERNEL_SOURCES, copy,
                     ignore=shutil.ignore_patterns("__pycache__"))
-    monkeypatch.setattr(native, "KERNEL_SOURCES", copy)
-    monkeypatch.setattr(native, "_FINGERPRINT", {})
-    before = native._fingerprint()
+    monkeypatch.setattr(store, "KERNEL_SOURCES", copy)
+    monkeypatch.setattr(store, "_FINGERPRINT", {})
+    before = store._fingerprint()
     with open(copy / source, "a") as f:
         f.write("\n# changed\n")
-    monkeypatch.setattr(native, "_FINGERPRINT", {})
-    assert native._fingerprint() != before
+    monkeypatch.setattr(store, "_FINGERPRINT", {})
+    assert store._fingerprint() != before

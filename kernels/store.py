@@ -1,0 +1,177 @@
+"""The kernel cache's store: one folder per CPU and kernel source (cache_dir), entries
+written whole or not at all (store), checked before they are loaded (verified), and a
+lock that makes concurrent first runs compile each entry once (lock).  No Numba here.
+
+An entry is two files: KEY.o, the object code, and KEY.json, its description (the
+signature of kernels/signature.py, the symbols it imports, the code's size and sha256),
+written last.  See docs/engines.md, "The compiled entries and the kernel cache".
+"""
+
+import functools
+import hashlib
+import json
+import os
+import sys
+from pathlib import Path
+
+from .signature import Signature
+
+# Every source the compiled code can depend on: the workers and what they import (the
+# Numba option sets, the contract's constants), so any change gives a new cache folder.
+KERNEL_SOURCES = Path(__file__).parent
+COMPILED_SOURCES = ("jit/*.py", "config.py", "contract.py", "signature.py")
+
+
+def cache_dir():
+    """The kernel cache of this CPU and kernel source: CSW_KERNEL_CACHE, else
+    NUMBA_CACHE_DIR/csw (the folder CI setups already keep between runs), else the user's
+    cache folder; in a subfolder named by everything the machine code depends on."""
+    root = os.environ.get("CSW_KERNEL_CACHE") or None  # set but empty: not set
+    if root is None and os.environ.get("NUMBA_CACHE_DIR"):
+        root = Path(os.environ["NUMBA_CACHE_DIR"]) / "csw"
+    if root is None:
+        base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+        root = Path(base) / "csw" / "kernels"
+    return Path(root) / _fingerprint()
+
+
+_FINGERPRINT = {}
+
+
+def _fingerprint():
+    """A name for everything the compiled code depends on: the kernel sources, Python,
+    llvmlite (which fixes Numba's version), the CPU and Numba's CPU settings."""
+    if "value" not in _FINGERPRINT:
+        import llvmlite
+        import llvmlite.binding as llvm
+
+        digest = hashlib.sha256()
+        for path in sorted(p for pattern in COMPILED_SOURCES
+                           for p in KERNEL_SOURCES.glob(pattern)):
+            name = path.relative_to(KERNEL_SOURCES).as_posix()
+            digest.update(name.encode() + b"\0" + path.read_bytes())
+        for part in (sys.version, llvmlite.__version__, llvm.get_host_cpu_name(),
+                     llvm.get_host_cpu_features().flatten(),
+                     os.environ.get("NUMBA_CPU_NAME", ""),
+                     os.environ.get("NUMBA_CPU_FEATURES", ""),
+                     os.environ.get("NUMBA_OPT", "")):
+            digest.update(str(part).encode() + b"\0")
+        _FINGERPRINT["value"] = f"{llvm.get_host_cpu_name()}-{digest.hexdigest()[:16]}"
+    return _FINGERPRINT["value"]
+
+
+# Modes of the cache's folders and files, whatever the umask: machine code that other
+# users could replace would run in every csw process that loads it.
+FOLDER_MODE, FILE_MODE = 0o755, 0o644
+
+
+def is_stored(folder, key):
+    return (folder / f"{key}.json").is_file() and (folder / f"{key}.o").is_file()
+
+
+def _safe_mode(path):
+    """Whether ``path`` is not writable by the group or others."""
+    return not os.stat(path).st_mode & 0o022
+
+
+def verified(folder, key, found, discard=False):
+    """Whether the entry ``key`` is complete and intact: its description reads, names its
+    symbol and layout, its object file has the size and sha256 the description gives,
+    and neither is writable by others.  The description goes into ``found``.  With
+    ``discard`` (the caller holds the lock) a damaged entry is removed, to be compiled
+    again."""
+    if key in found:
+        return True
+    meta_path, code_path = folder / f"{key}.json", folder / f"{key}.o"
+    try:
+        meta = json.loads(meta_path.read_text())
+        code = code_path.read_bytes()
+        Signature.from_description(meta)  # raises on a description of another layout
+        intact = (isinstance(meta, dict) and isinstance(meta.get("symbol"), str)
+                  and isinstance(meta.get("arrays"), list)
+                  and isinstance(meta.get("scalars"), list)
+                  and isinstance(meta.get("imports"), list)
+                  and meta.get("size") == len(code)
+                  and meta.get("sha256") == hashlib.sha256(code).hexdigest()
+                  and _safe_mode(folder) and _safe_mode(meta_path) and _safe_mode(code_path))
+    except (OSError, ValueError, TypeError, KeyError):
+        intact = False
+    if intact:
+        found[key] = meta
+    elif discard:
+        for path in (meta_path, code_path):
+            path.unlink(missing_ok=True)
+    return intact
+
+
+def make_folder(folder):
+    """``folder`` and its missing parents, each FOLDER_MODE whatever the umask."""
+    folder = Path(folder)
+    missing = []
+    while not folder.is_dir():
+        missing.append(folder)
+        folder = folder.parent
+    for path in reversed(missing):
+        try:
+            path.mkdir()
+        except FileExistsError:
+            continue
+        os.chmod(path, FOLDER_MODE)
+
+
+def store(folder, key, symbol, code):
+    """Write the object file, then its description with the code's size and sha256: an
+    entry is complete once its .json exists and matches, and both are renamed into
+    place, so a killed compile leaves no entry and a damaged one is found."""
+    meta, obj = code
+    make_folder(folder)
+    description = dict(meta, symbol=symbol, size=len(obj),
+                       sha256=hashlib.sha256(obj).hexdigest())
+    for suffix, payload in ((".o", obj), (".json", json.dumps(description).encode())):
+        tmp = folder / f".{key}{suffix}.{os.getpid()}.tmp"
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, FILE_MODE)
+        try:
+            os.fchmod(fd, FILE_MODE)
+            with os.fdopen(fd, "wb") as handle:
+                handle.write(payload)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            raise OSError(exc.errno, f"can't store a compiled kernel ({exc.strerror})",
+                          str(folder)) from None
+        os.replace(tmp, folder / f"{key}{suffix}")
+
+
+class lock:
+    """An exclusive lock on a file beside the entries (released by the system if the
+    process dies); a no-op where the platform has no fcntl."""
+
+    def __init__(self, folder):
+        self.folder = folder
+
+    def __enter__(self):
+        make_folder(self.folder)
+        if not _safe_mode(self.folder):  # made by an older csw under a loose umask
+            os.chmod(self.folder, FOLDER_MODE)
+        self.handle = open(os.open(self.folder / ".lock", os.O_RDWR | os.O_CREAT, FILE_MODE))
+        try:
+            import fcntl
+
+            fcntl.flock(self.handle, fcntl.LOCK_EX)
+        except ImportError:
+            return self
+        # Only the lock's holder writes entries: a temporary file now is a killed
+        # compile's, and can go.
+        for stale in self.folder.glob(".*.tmp"):
+            stale.unlink(missing_ok=True)
+        return self
+
+    def __exit__(self, *exc):
+        self.handle.close()  # closing releases the lock
+        return False
+
+
+@functools.cache  # a handful of variants, looked up on every call of an entry
+def entry_key(kernel, variant):
+    """The name of a variant's entry in the cache: the kernel and the variant's values."""
+    return "-".join([kernel, *(str(int(v)) if isinstance(v, bool) else str(v)
+                               for v in variant)])
