@@ -191,9 +191,13 @@ def _use_stripes(left, right, output, confidence, memory_limit, client, config):
         raise
 
 
+def role_suffixes(role):
+    """The suffixes an output of ``role`` may have: a companion's (COMPANIONS), a
+    confidence map's float formats, else the map formats."""
+    return COMPANIONS.get(role) or suffixes("confidence" if role == "confidence" else "map")
+
+
 def check_outputs(inputs, outputs):
     """Before any work: csw.io.safety.check_outputs with each output's suffixes by its
-    role (COMPANIONS, else the map formats; a confidence map's float ones)."""
-    allowed = {name: COMPANIONS.get(name) or suffixes("confidence" if name == "confidence"
-                                                      else "map") for name in outputs}
-    safety.check_outputs(inputs, outputs, allowed)
+    role (role_suffixes)."""
+    safety.check_outputs(inputs, outputs, {name: role_suffixes(name) for name in outputs})

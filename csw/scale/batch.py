@@ -21,14 +21,15 @@ from ..io import safety
 from ..io.atomic import atomic_write, remove_temporaries
 from ..io.formats import check_range, suffixes
 from ..io.images import ImageError
-from ..matching.files import COMPANIONS, match_files
+from ..matching.files import match_files, role_suffixes
 from .executor import progress_bar, run_tasks
 
 # A name's outputs add a suffix (".depth.tiff") to it, and a file name holds 255 bytes.
 MAX_NAME_BYTES = 200
 
 # Each pair's 3-D outputs are NAME + this + their format: NAME.depth.pfm, NAME.ply ...
-PER_PAIR_INFIX = {"depth": ".depth", "cloud": "", "depth_preview": ".depth"}
+PER_PAIR_INFIX = {"preview": ".preview", "confidence": ".confidence", "depth": ".depth",
+                  "cloud": "", "depth_preview": ".depth"}
 
 
 @dataclass(frozen=True)
@@ -209,6 +210,8 @@ def run_job(task, config, calib=None, three_d=None):
             raise ValueError(job.problem)
         calibration = calib_module.resolve(calib, job.left)
         result = match_files(job.left, job.right, outputs["map"], calib=calibration,
+                             preview=outputs.get("preview"),
+                             confidence=outputs.get("confidence"),
                              depth=outputs.get("depth"), cloud=outputs.get("cloud"),
                              depth_preview=outputs.get("depth_preview"), keep_scratch=True,
                              config=config, **(three_d or {}))
@@ -237,8 +240,8 @@ def failure_message(exc):
 
 def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
                summary=None, client=None, calib=None, depth=None, cloud=None,
-               depth_preview=None, max_depth=None, units=None, config=None,
-               **match_options):
+               depth_preview=None, max_depth=None, units=None, preview=None,
+               confidence=None, config=None, **match_options):
     """Match every job into ``out_dir/<name><suffix>``.
 
     Parameters
@@ -265,6 +268,9 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         One calibration for every pair; default: each pair's calib.txt beside its left
         image (Middlebury 2014's layout), whose ndisp also sets its range when the
         options give no dmax.
+    preview, confidence : str, optional
+        Also write each pair's colour picture of its map (".png": NAME.preview.png) and
+        its confidence map (a float format, e.g. ".pfm": NAME.confidence.pfm).
     depth, cloud, depth_preview : str, optional
         Also write each pair's depth map (the format, e.g. ".pfm": NAME.depth.pfm), point
         cloud (".ply": NAME.ply) and depth picture (".png": NAME.depth.png).
@@ -300,13 +306,14 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     check_max_depth(max_depth)
     summary = Path(summary) if summary else out_dir / "summary.json"
     extras = {}  # role -> the file name pattern of each pair's output
-    for role, value in (("depth", depth), ("cloud", cloud), ("depth_preview", depth_preview)):
+    for role, value in (("preview", preview), ("confidence", confidence), ("depth", depth),
+                        ("cloud", cloud), ("depth_preview", depth_preview)):
         if value is not None:
             extra = str(value) if str(value).startswith(".") else Path(value).suffix
-            if extra.lower() not in COMPANIONS[role]:
+            if extra.lower() not in role_suffixes(role):
                 raise OptionError(role, f"many pairs take the {role.replace('_', ' ')}'s "
-                                        f"format, one of {', '.join(COMPANIONS[role])}; got "
-                                        f"{value!r}")
+                                        f"format, one of {', '.join(role_suffixes(role))}; "
+                                        f"got {value!r}")
             extras[role] = "{name}" + PER_PAIR_INFIX[role] + extra
     calib_path = calib if isinstance(calib, (str, Path)) else None
     if calib_path is not None:

@@ -104,12 +104,14 @@ def memory_size(ctx, param, value):
 @opt.option("csw_margin")
 @opt.option("threads", short="-j")
 @click.option("--preview", type=click.Path(dir_okay=False),
-              help="Also write an 8-bit colour PNG of the map (invalid black).")
+              help="Also write an 8-bit colour PNG of the map (invalid black). Many pairs: "
+                   ".png, for NAME.preview.png beside each map.")
 @click.option("--cost-map", type=click.Path(dir_okay=False),
               help="Also write the minimum-cost map m as PFM (inf where invalid).")
 @click.option("--confidence", type=click.Path(dir_okay=False),
               help="Also write the confidence (0..1: how much the best cost beats the "
-                   "second best) as PFM (or .npy, .tif, .zarr).")
+                   "second best) as PFM (or .npy, .tif, .zarr). Many pairs: the format, "
+                   "e.g. .pfm: NAME.confidence.pfm.")
 @opt.calibration_options(beside_left=True)
 @click.option("--depth", type=click.Path(dir_okay=False),
               help="Also write the depth map (.pfm, .npy, .tif), from the calibration. "
@@ -159,10 +161,9 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     many = manifest is not None or output_dir is not None or \
         (left is not None and os.path.isdir(left))
     if many:
-        if output or preview or cost_map or confidence or memory_limit:
-            raise click.UsageError("-o, --preview, --cost-map, --confidence and "
-                                   "--memory-limit are for one pair; many pairs write into "
-                                   "--output-dir")
+        if output or cost_map or memory_limit:
+            raise click.UsageError("-o, --cost-map and --memory-limit are for one pair; many "
+                                   "pairs write into --output-dir")
         if bool(manifest) == (left is not None):
             raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")
         if left is not None and (right is None or not os.path.isdir(right)):
@@ -171,7 +172,8 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
             config = params.resolve(**settings)  # before the manifest is read, and once
         calibration = opt.calibration(ctx.params)
         return match_batch(left, right, manifest, output_dir, suffix, overwrite, summary,
-                           config, workers, scheduler, calibration, three_d)
+                           config, workers, scheduler, calibration,
+                           dict(three_d, preview=preview, confidence=confidence))
     if left is None or right is None:
         raise click.UsageError("give LEFT and RIGHT images (or folders with --output-dir)")
     if output is None:
@@ -197,9 +199,10 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
 
 
 def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, config,
-                workers=None, scheduler=None, calibration=None, three_d=None):
+                workers=None, scheduler=None, calibration=None, outputs=None):
     """The batch form: pairs from two folders or a manifest, into OUTPUT_DIR, with the
-    resolved ``config``."""
+    resolved ``config``; ``outputs``: each pair's other outputs' formats, and the 3-D
+    options."""
     from csw import jobs_from_folders, jobs_from_manifest, match_many
     from csw.scale.distributed import cluster
 
@@ -212,7 +215,7 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, c
         with opt.library_errors(), cluster(workers, scheduler) as client:
             report = match_many(jobs, out, suffix=suffix, overwrite=overwrite, progress=True,
                                 summary=summary, client=client, calib=calibration,
-                                config=config, **(three_d or {}))
+                                config=config, **(outputs or {}))
     except OSError as exc:
         raise write_error(exc) from None
     counts = report["counts"]

@@ -133,3 +133,35 @@ def test_wheel_installs_no_top_level_kernels(tmp_path):
     assert tops == {"csw", "csw_cli"}
     assert "csw/kernels/fast.py" in names and "csw/kernels/__init__.py" in names
     assert np.all([not n.startswith("kernels/") for n in names])
+
+
+def test_a_batch_pair_has_a_preview_and_confidence_and_the_single_pair_s_bytes(pair_files,
+                                                                               tmp_path):
+    """A pair of a batch writes what the same pair alone writes, byte for byte, and can
+    have the single pair's companions: the colour preview and the confidence map."""
+    from click.testing import CliRunner
+
+    from csw_cli.main import cli
+
+    left, right = pair_files
+    lefts, rights = tmp_path / "L", tmp_path / "R"
+    lefts.mkdir()
+    rights.mkdir()
+    (lefts / "p.png").write_bytes(left.read_bytes())
+    (rights / "p.png").write_bytes(right.read_bytes())
+    out = tmp_path / "out"
+    batch = CliRunner().invoke(cli, ["match", str(lefts), str(rights), "-O", str(out),
+                                     "--dmax", "8", "--preview", ".png",
+                                     "--confidence", ".pfm"])
+    assert batch.exit_code == 0, batch.output
+    single = CliRunner().invoke(cli, ["match", str(left), str(right), "-o",
+                                      str(tmp_path / "d.pfm"), "--dmax", "8", "--preview",
+                                      str(tmp_path / "v.png"), "--confidence",
+                                      str(tmp_path / "c.pfm")])
+    assert single.exit_code == 0, single.output
+    for batch_name, single_name in (("p.pfm", "d.pfm"), ("p.preview.png", "v.png"),
+                                    ("p.confidence.pfm", "c.pfm")):
+        assert (out / batch_name).read_bytes() == (tmp_path / single_name).read_bytes()
+    refused = CliRunner().invoke(cli, ["match", str(lefts), str(rights), "-O", str(out),
+                                       "--dmax", "8", "--preview", ".pfm", "--overwrite"])
+    assert refused.exit_code == 2 and "format, one of .png" in refused.output
