@@ -39,7 +39,7 @@ from .contract import (
     validate,
 )
 from .window import extra_maps, result
-from .workspace import empty
+from .workspace import empty, output
 
 COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
 
@@ -95,7 +95,7 @@ def stripe_bounds(height, window, threads, rows):
 def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                rule="literal", csw_margin=None, slack=None, rows=None, threads=None,
                census_window=None, census_pattern=None,
-               extras=False, right_map=False, lr_check=None, workspace=None):
+               extras=False, right_map=False, lr_check=None, workspace=None, into=None):
     """Match a rectified pair with running sums (same contract as match_window).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
@@ -103,10 +103,10 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     lr_check: the left-right check is made at the end of each row, from the right
         image's best matches as they stand then, so the right map is never stored
         unless ``right_map`` asks for it.
-    workspace: a kernels.workspace.Workspace for the padded images (or census codes),
-        the disparity, the right map and the check: the result's maps but min_cost are
-        then the workspace's, valid until its next match (for callers that use them at
-        once).
+    workspace: a kernels.workspace.Workspace for the scratch (the padded images or
+        census codes, the right map when it is not returned), borrowed for this call.
+    into: arrays the caller owns to write outputs into rather than fresh ones:
+        "disparity" int32 (n, W), "lr_valid" uint8 (n, W) (kernels.workspace.output).
     Other options as for match_window.
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     """
@@ -145,11 +145,12 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     acc = accumulator_dtype(pixels, s.cost, s.window)
     run = native.entry("fast", variant(s.cost, pixels, s.window, s.csw, s.right_costs,
                                        s.extras, s.dmin))
-    disp = empty(workspace, "disparity", (height, width), np.int32)
+    disp = output(into, "disparity", (height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
     maps = extra_maps(disp.shape, s, workspace)
     checked = s.lr_check >= 0
-    lr_valid = empty(workspace, "lr-valid", (height if checked else 1, width), np.uint8)
+    lr_valid = output(into, "lr_valid", (height, width), np.uint8) if checked else \
+        np.empty((1, width), np.uint8)  # a dummy the workers never write
     evaluated = np.zeros(height, np.int64)
     work = rows.size * width * ndisp
     if work < runtime.DIRECT_WORK:

@@ -35,16 +35,15 @@ def _by_rows(kind, arguments, height, scratch=None, threads=None, per_pixel=8):
     runtime.run_stripes(stripe, count, count, work)
 
 
-def lr_consistent(disp, right_disp, limit, invalid=-1, workspace=None, threads=None):
+def lr_consistent(disp, right_disp, limit, invalid=-1, threads=None, out=None):
     """bool (H, W): d = disp[y, x] is valid (not ``invalid``, the maps' invalid value:
     see contract.invalid) and its right pixel's own match, right_disp[y, x - d]
     (``invalid``: none), differs from it by at most ``limit``.
 
-    disp, right_disp: int32 (H, W).  workspace: a kernels.workspace.Workspace to take the
-    result from (valid until its next check), else a new array.  threads: as for
-    csw.match."""
+    disp, right_disp: int32 (H, W).  out: a uint8 (H, W) array of the caller's to write
+    the check into, else a new one.  threads: as for csw.match."""
     disp, right_disp = np.ascontiguousarray(disp), np.ascontiguousarray(right_disp)
-    valid = empty(workspace, "lr-valid", disp.shape, np.uint8)
+    valid = np.empty(disp.shape, np.uint8) if out is None else out
     # About 1.8 ns a pixel in one thread: 10 units, parallel from about 5 MP up.
     _by_rows("lr", dict(disp=disp, right_disp=right_disp, valid=valid, limit=int(limit),
                         invalid=int(invalid)), disp.shape[0], threads=threads, per_pixel=10)

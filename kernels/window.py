@@ -25,7 +25,7 @@ from .contract import (
     validate,
 )
 from .filters import lr_consistent
-from .workspace import empty
+from .workspace import empty, output
 
 COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
 
@@ -34,12 +34,14 @@ def extra_maps(shape, s, workspace=None, right=None):
     """(second, prev, next, right) outputs: full maps where asked for (s.extras for the
     first three; for the last, ``right``, by default s.right_map), else 1-row dummies the
     workers never write (the entries take arrays of the right type either way).  The
-    right map is taken from ``workspace`` when one is given (see match_fast)."""
+    right map, when only the left-right check uses it, is the workspace's scratch (see
+    match_fast); a returned one is fresh."""
     rows = shape[0] if s.extras else 1
     costs = tuple(np.full((rows, shape[1]), -1, np.int64) for _ in range(3))
     stored = s.right_map if right is None else right
-    right_map = empty(workspace, "right-disparity", (shape[0] if stored else 1, shape[1]),
-                      np.int32)
+    right_shape = (shape[0] if stored else 1, shape[1])
+    right_map = np.empty(right_shape, np.int32) if s.right_map else \
+        empty(workspace, "right-disparity", right_shape, np.int32)
     right_map.fill(invalid(s.dmin))
     return (*costs, right_map)
 
@@ -72,7 +74,7 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                  rule="literal", csw_margin=None, slack=None, rows=None, threads=None,
                  census_window=None,
                  census_pattern=None, extras=False, right_map=False,
-                 lr_check=None, workspace=None):
+                 lr_check=None, workspace=None, into=None):
     """Match a rectified pair with full window sums (the contract: docs/engines.md).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype; left is the reference.
@@ -86,9 +88,9 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     extras: also return the second-best and neighbour costs; right_map: the right image's
         map from the same costs; lr_check: a limit N for the left-right check on the two
         maps (see MatchResult).
-    workspace: a kernels.workspace.Workspace to take the right map and the check from;
-        they are then valid until the workspace's next match (for callers that use them
-        at once).
+    workspace: a kernels.workspace.Workspace for the right map when only the check uses
+        it (scratch, borrowed for this call).
+    into: arrays the caller owns for the outputs, as for match_fast.
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     Raises ValueError, with a message that says how to fix it, on bad input.
     """
@@ -108,7 +110,7 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                                          s.extras, s.dmin))
     width = left.shape[1]
     ndisp = s.dmax - s.dmin + 1
-    disp = np.empty((rows.size, width), np.int32)
+    disp = output(into, "disparity", (rows.size, width), np.int32)
     min_cost = np.empty((rows.size, width), np.int64)
     maps = extra_maps(disp.shape, s, workspace, right=s.right_costs)
     evaluated = np.zeros(rows.size, np.int64)
@@ -135,6 +137,6 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     plain = candidate_count(width, s.dmin, s.dmax) * rows.size
     lr_valid = None
     if s.lr_check >= 0:  # the paper's engine: a pass of its own over the two maps
-        lr_valid = lr_consistent(disp, maps[3], s.lr_check, invalid(s.dmin), workspace,
-                                 threads)
+        lr_valid = lr_consistent(disp, maps[3], s.lr_check, invalid(s.dmin), threads,
+                                 out=output(into, "lr_valid", disp.shape, np.uint8))
     return result(disp, min_cost, int(evaluated.sum()), plain, s, maps, lr_valid)

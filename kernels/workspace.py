@@ -13,6 +13,9 @@ map of zero confidences faulted in about 500 pages a call, a third of its time, 
 glibc gave the heap's top back to the system after each.
 
 Rules that keep this safe:
+- a kernel's result holds no workspace buffer: a caller that wants an output without a
+  fresh array lends one it owns (``into``, see :func:`output`), and keeps it from
+  leaving the call itself;
 - a thread uses only its own workspace (:func:`for_this_thread`), so concurrent matches
   never share a buffer;
 - a role names one buffer, and an array taken for a role is valid until the next request
@@ -72,6 +75,19 @@ def empty(workspace, role, shape, dtype):
     if workspace is None:
         return np.empty(shape, dtype)
     return workspace.empty(role, shape, dtype)
+
+
+def output(into, role, shape, dtype):
+    """An output of a kernel: the caller's own array ``into[role]`` (checked: C-contiguous,
+    of ``shape`` and ``dtype``), else a fresh one.  Results hold only outputs, never a
+    workspace's scratch, so a result stays valid whatever runs next."""
+    array = (into or {}).get(role)
+    if array is None:
+        return np.empty(shape, dtype)
+    if array.shape != tuple(shape) or array.dtype != dtype or not array.flags.c_contiguous:
+        raise ValueError(f"the {role} output must be C-contiguous {np.dtype(dtype)} "
+                         f"{tuple(shape)}, got {array.dtype} {array.shape}")
+    return array
 
 
 _LOCAL = threading.local()

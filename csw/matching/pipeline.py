@@ -25,6 +25,8 @@ The confidence of a pixel is (second - best) / second of its costs (0..1, 0 wher
 invalid or without a second candidate): how distinct the match is.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .. import kernels
@@ -106,10 +108,29 @@ def confidence_map(min_cost, second, valid):
     return conf
 
 
+@dataclass
+class Work:
+    """What a run's kernels did, beside its maps (arrays the caller owns).
+
+    min_cost: int64 (H, W), the minimum cost m at the chosen d, -1 where no candidate.
+    evaluated: candidates (pixel, d) whose cost was evaluated; candidates: those plain
+    matching evaluates on the same rows.
+    """
+
+    min_cost: np.ndarray
+    evaluated: int
+    candidates: int
+
+    @property
+    def work_saved(self):
+        """Share (0..1) of plain matching's candidate evaluations that were skipped."""
+        return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
+
+
 def run(left, right, kernel_args, stages, confidence=False, workspace=None):
     """Run the pipeline: (disparity float32 (H, W) NaN invalid, confidence float32 (H, W),
-    the kernels' MatchResult).  The confidence is None when neither ``confidence`` nor a
-    stage asked for the second-best costs.
+    :class:`Work`).  The confidence is None when neither ``confidence`` nor a stage asked
+    for the second-best costs.
 
     left, right: uint8/uint16 (H, W).  kernel_args: csw.kernels.match's arguments (engine,
     window, range, cost, CSW).  stages: a csw.config.params.Stages (see the module's
@@ -117,9 +138,9 @@ def run(left, right, kernel_args, stages, confidence=False, workspace=None):
     confidence: compute the second-best costs for the confidence map even when no stage
     needs them.
     workspace: a kernels.workspace.Workspace for the scratch that never leaves the call
-        (padded images or census codes, the integer maps, the masks); the returned
-        MatchResult's disparity and right map are then None.  Whole-image matches pass
-        their thread's, so that repeated matches reuse it.  None: fresh arrays (the tiled
+        (padded images or census codes, the integer maps, the masks), lent to the kernels
+        for their own scratch and their integer outputs.  Whole-image matches pass their
+        thread's, so that repeated matches reuse it.  None: fresh arrays (the tiled
         bands, whose memory is planned).
     """
     disp, conf, raw = match_rows(left, right, kernel_args, stages, confidence, workspace)
@@ -156,25 +177,29 @@ def is_row_local(stages):
 
 def match_rows(left, right, kernel_args, stages, confidence=False, workspace=None):
     """The row-local stages: costs, CSW, the validity checks and subpixel.  Returns
-    (disparity float32 (H, W) NaN invalid, confidence float32 (H, W) or None, MatchResult);
+    (disparity float32 (H, W) NaN invalid, confidence float32 (H, W) or None, Work);
     row y depends only on input rows y +- :func:`row_overlap`.  workspace: see
     :func:`run`."""
     a, b = prefiltered(left, right, stages)
+    rows = kernel_args.get("rows")
+    shape = (left.shape[0] if rows is None else len(rows), left.shape[1])
+    into = None if workspace is None else {  # the integer maps, used only here
+        "disparity": workspace.empty("disparity", shape, np.int32),
+        "lr_valid": workspace.empty("lr-valid", shape, np.uint8)}
     raw = kernels.match(a, b, census_window=stages.census_window,
                         census_pattern=stages.census_pattern,
                         extras=confidence or stages.needs_extras,
-                        lr_check=stages.lr_check, workspace=workspace, **kernel_args)
+                        lr_check=stages.lr_check, workspace=workspace, into=into,
+                        **kernel_args)
     invalid = kernels.invalid(kernel_args["dmin"])
     valid = np.not_equal(raw.disparity, invalid,
                          out=kernels.workspace.empty(workspace, "valid", raw.disparity.shape,
                                                      np.bool_))
     if stages.lr_check is not None:
         valid &= raw.lr_valid
-        raw.lr_valid = None  # maybe the workspace's: not to be kept
     if stages.uniqueness_ratio is not None:
         valid &= distinct(raw.min_cost, raw.second_cost, stages.uniqueness_ratio)
     if stages.texture_threshold is not None:
-        rows = kernel_args.get("rows")
         texture = textured(left, kernel_args["window"], int(stages.prefilter_cap),
                            stages.texture_threshold)
         valid &= texture if rows is None else texture[rows]
@@ -183,13 +208,11 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
                                                 stages.subpixel)).astype(np.float32)
     else:
         disp = raw.disparity.astype(np.float32)
-    if workspace is not None:
-        raw.disparity = None  # maybe the workspace's: not to be kept
     # None when the second-best costs were not computed: no confidence to give.
     conf = None if raw.second_cost is None else confidence_map(raw.min_cost, raw.second_cost,
                                                                valid)
     disp[np.logical_not(valid, out=valid)] = np.nan  # in place: no temporary mask
-    return disp, conf, raw
+    return disp, conf, Work(raw.min_cost, raw.evaluated, raw.candidates)
 
 
 def filter_map(disp, conf, stages, workspace=None, threads=None):

@@ -61,8 +61,29 @@ def test_matches_through_the_workspace_equal_fresh_ones(small_scene, cost):
     np.testing.assert_array_equal(got.disparity, fresh.disparity)
     np.testing.assert_array_equal(got.right_disparity, fresh.right_disparity)
     np.testing.assert_array_equal(got.min_cost, fresh.min_cost)
-    assert np.shares_memory(got.disparity, ws.empty("disparity", (1,), np.int32))
-    assert not np.shares_memory(got.min_cost, fresh.min_cost)  # returned: always fresh
+    for name in ("disparity", "min_cost", "right_disparity"):  # results own their maps
+        array = getattr(got, name)
+        assert not any(np.shares_memory(array, buffer) for buffer in ws._held.values())
+    assert ws.held() > 0  # the padded images or census codes: scratch, kept
+
+
+def test_a_caller_lends_the_outputs_it_wants_written_in_place(small_scene):
+    """``into``: the disparity and the check go into the caller's own arrays."""
+    left, right = small_scene[:2]
+    mine = {"disparity": np.empty(left.shape, np.int32),
+            "lr_valid": np.empty(left.shape, np.uint8)}
+    for engine in ("fast", "window"):
+        got = kernels.match(left, right, engine=engine, window=5, dmin=0, dmax=12,
+                            cost="sad", lr_check=1, into=mine)
+        fresh = kernels.match(left, right, engine=engine, window=5, dmin=0, dmax=12,
+                              cost="sad", lr_check=1)
+        assert np.shares_memory(got.disparity, mine["disparity"])
+        assert np.shares_memory(got.lr_valid, mine["lr_valid"])
+        np.testing.assert_array_equal(got.disparity, fresh.disparity)
+        np.testing.assert_array_equal(got.lr_valid, fresh.lr_valid)
+    with pytest.raises(ValueError, match="disparity output must be"):
+        kernels.match(left, right, engine="fast", window=5, dmin=0, dmax=12, cost="sad",
+                      into={"disparity": np.empty((2, 2), np.int32)})
 
 
 @pytest.mark.parametrize("preset", ["accurate", "raw"])
