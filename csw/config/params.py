@@ -274,18 +274,6 @@ class Stages:
         """The stages that are not off: name -> value."""
         return {k: v for k, v in asdict(self).items() if v != OFF[k]}
 
-    def cost_shaping(self):
-        """Only the stages that shape the costs (the pre-filter, the census), the rest
-        off: what tau auto's sample of plain matching runs with, since the checks and
-        the filters don't change the minimum costs."""
-        return replace(OFF_STAGES, prefilter=self.prefilter, prefilter_cap=self.prefilter_cap,
-                       census_window=self.census_window, census_pattern=self.census_pattern)
-
-    @property
-    def needs_extras(self):
-        """Whether the kernels must return the second-best and neighbour costs."""
-        return self.uniqueness_ratio is not None or self.subpixel != "none"
-
 
 OFF_STAGES = Stages(**OFF)  # the paper's contract: no stage
 

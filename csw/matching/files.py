@@ -11,7 +11,7 @@ import numpy as np
 
 from .. import kernels
 from ..camera import calibration as calib_module
-from ..camera.geometry import CLOUD_SUFFIXES, DEPTH_SUFFIXES, check_max_depth
+from ..camera.geometry import check_max_depth
 from ..camera.geometry import writers as three_d_writers
 from ..config.params import OptionError, resolve
 from ..io import safety
@@ -31,8 +31,9 @@ from . import disparity_range
 from .matcher import Matcher
 
 # What each companion output may be, by role (csw.io.formats.suffixes).
-COMPANIONS = {"preview": (".png",), "cost_map": (".pfm",), "plot": (".png",),
-              "depth": DEPTH_SUFFIXES, "cloud": CLOUD_SUFFIXES, "depth_preview": (".png",)}
+COMPANIONS = {"preview": suffixes("picture"), "cost_map": suffixes("costs"),
+              "plot": suffixes("picture"), "depth": suffixes("depth"),
+              "cloud": suffixes("cloud"), "depth_preview": suffixes("picture")}
 
 
 # An upper bound of each output's size, per pixel: float maps, a 16-bit PNG map, RGB

@@ -14,6 +14,7 @@ from ..config.params import Config, OptionError
 from ..config.tau import resolve_tau, sample_rows
 from . import disparity_range
 from .pipeline import entries
+from .stages import cost_shaping
 
 
 @dataclass
@@ -83,7 +84,7 @@ def set_up(config, shape, dtype, right=None, sample_min_cost=None, make_plan=Non
     if config.csw:
         tau, source = resolve_tau(
             config.tau, config.csw_rule,
-            plain_min_cost=lambda: sample_min_cost(args, stages.cost_shaping(),
+            plain_min_cost=lambda: sample_min_cost(args, cost_shaping(stages),
                                                    sample_rows(height)))
     settings = dict(config.as_dict(), tau=tau, tau_source=source)
     return Prepared(config, dict(args, csw=config.csw, tau=tau), settings, compile_s, layout)
@@ -100,7 +101,7 @@ def config_entries(config, dtype, confidence=False):
     args = config.kernel_args()
     wanted = entries(dict(args, csw=config.csw), config.stages, dtype, confidence)
     if config.csw:  # tau's sample: plain matching with the stages that shape the costs
-        wanted += entries(dict(args, csw=False), config.stages.cost_shaping(), dtype)
+        wanted += entries(dict(args, csw=False), cost_shaping(config.stages), dtype)
     return wanted
 
 

@@ -14,7 +14,7 @@ import oracle
 from csw import kernels
 from csw.config import params
 from csw.kernels import filters, runtime
-from csw.matching import pipeline
+from csw.matching import pipeline, stages
 
 
 def random_map(rng, shape, levels=5, holes=0.2):
@@ -28,8 +28,8 @@ def random_map(rng, shape, levels=5, holes=0.2):
 def test_xsobel_and_texture(seed, cap):
     rng = np.random.default_rng(seed)
     image = rng.integers(0, 256, (6, 9)).astype(np.uint8)
-    np.testing.assert_array_equal(pipeline.xsobel(image, cap), oracle.xsobel(image, cap))
-    np.testing.assert_array_equal(pipeline.textured(image, 3, cap, 40),
+    np.testing.assert_array_equal(stages.xsobel(image, cap), oracle.xsobel(image, cap))
+    np.testing.assert_array_equal(stages.textured(image, 3, cap, 40),
                                   oracle.textured(image, 3, cap, 40))
 
 
@@ -126,3 +126,28 @@ def test_fill_leaves_nothing_invalid_and_presets(small_scene):
 def test_bad_stage_options(small_scene, kwargs, message):
     with pytest.raises(ValueError, match=message):
         csw.match(small_scene[0], small_scene[1], dmax=16, **kwargs)
+
+
+def test_each_stage_option_belongs_to_exactly_one_stage_record():
+    """A stage lives in one record: its options, margins, bytes, entries and step."""
+    owned = [name for stage in stages.STAGES for name in stage.options]
+    assert sorted(owned) == sorted(params.STAGE_NAMES)
+    assert len(set(owned)) == len(owned)
+    for stage in stages.STAGES:
+        assert stage.kind in ("images", "costs", "check", "disparity", "filter")
+        assert (stage.step is None) == (stage.kind == "costs"), stage.name
+        assert not stage.on(params.OFF_STAGES, "sad"), stage.name  # off in the contract
+
+
+def test_margins_and_entries_come_from_the_stage_records():
+    accurate = params.resolve().stages
+    assert pipeline.row_overlap(accurate, 9, "census") == 4 + 4  # window, census 9x9
+    assert pipeline.row_overlap(accurate, 9, "sad") == 4
+    both = replace(params.OFF_STAGES, prefilter="xsobel", texture_threshold=10)
+    assert pipeline.row_overlap(both, 9, "sad") == 5  # one x-Sobel row, shared
+    assert pipeline.filter_overlap(replace(accurate, median=5)) == 99 + 2
+    loaded = pipeline.entries(dict(engine="fast", cost="census", window=9, dmin=0),
+                              replace(accurate, median=3, fill="background"),
+                              np.dtype(np.uint8))
+    assert [e for e in loaded if e[0] == "filters"] == [
+        ("filters", ("speckle",)), ("filters", ("median",)), ("filters", ("fill",))]

@@ -16,17 +16,10 @@ from ...io.formats import TIFF_TILE
 from ...io.sources import open_source
 from ...kernels import runtime
 from ...matching.pipeline import filter_overlap, row_overlap
+from ...matching.stages import BAND_BYTES, MAP_BYTES, active, needs_extras
 
 DEFAULT_MEMORY_LIMIT = 512 * 2**20  # the stripes' working memory, per process
 
-# Bytes each band pixel costs in the first pass (inputs, their padded and census copies,
-# the kernels' maps, the checks' masks), from peak RSS measured on 4000-wide pairs with a
-# margin; tests/library/test_tiled.py checks a real run against the limit.
-PASS1_BYTES = {"base": 48, "census": 24, "right_map": 8, "extras": 32, "xsobel": 24,
-               "texture": 32, "colour": 40}
-# And in the second pass: the map, the speckle filter's labels, stack and members, the
-# median's output, the confidence.
-PASS2_BYTES = {"base": 16, "speckle": 26, "median": 4, "confidence": 8}
 
 
 class MemoryLimitError(ValueError):
@@ -81,17 +74,11 @@ def stripe_bytes(config, width, dmin, dmax, threads, colour=False):
     """(bytes per band row in pass 1, bytes per band row in pass 2, fixed bytes): the
     memory model the plan follows.  The fixed part is the fast engine's per-thread cost
     columns, (W + window) x (D + 1) accumulators of up to 8 bytes."""
-    st = config.stages
-    p1 = PASS1_BYTES["base"]
-    p1 += PASS1_BYTES["census"] if config.cost == "census" else 0
-    p1 += PASS1_BYTES["right_map"] if st.lr_check is not None else 0
-    p1 += PASS1_BYTES["extras"] if st.needs_extras else 0
-    p1 += PASS1_BYTES["xsobel"] if st.prefilter == "xsobel" else 0
-    p1 += PASS1_BYTES["texture"] if st.texture_threshold is not None else 0
-    p1 += PASS1_BYTES["colour"] if colour else 0
-    p2 = PASS2_BYTES["base"] + PASS2_BYTES["confidence"]
-    p2 += PASS2_BYTES["speckle"] if st.speckle_size > 0 else 0
-    p2 += PASS2_BYTES["median"] if st.median else 0
+    st, running = config.stages, active(config.stages, config.cost)
+    p1 = BAND_BYTES["base"] + sum(stage.band_bytes(st) for stage in running)
+    p1 += BAND_BYTES["extras"] if needs_extras(st, config.cost) else 0
+    p1 += BAND_BYTES["colour"] if colour else 0
+    p2 = MAP_BYTES["base"] + MAP_BYTES["confidence"] + sum(s.map_bytes for s in running)
     ndisp = dmax - dmin + 1
     fixed = threads * (width + config.window) * (ndisp + 1) * 8 \
         if config.engine == "fast" else threads * (width + ndisp) * 32
