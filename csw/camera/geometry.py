@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config.params import OptionError
-from ..io.formats import as_float_disparity
+from ..io.formats import as_float_disparity, suffixes
 
 # A turbo-like ramp, dark blue to dark red, by linear interpolation between these colours
 # (sampled from Google's Turbo colormap), so no plotting library is needed.
@@ -155,8 +155,8 @@ def _ramp(t):
     return np.round(RAMP[low] * (1 - frac) + RAMP[low + 1] * frac).astype(np.uint8)
 
 
-DEPTH_SUFFIXES = (".pfm", ".npy", ".tif", ".tiff")  # float maps written whole
-CLOUD_SUFFIXES = (".ply",)
+DEPTH_SUFFIXES = suffixes("depth")  # float maps written whole
+CLOUD_SUFFIXES = suffixes("cloud")
 
 
 def writers(disparity, calib, depth_path=None, cloud_path=None, preview_path=None,

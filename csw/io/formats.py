@@ -328,6 +328,9 @@ class Format:
         "store" for a zarr store written in place; None when it can't.
     floats: holds any float (a confidence map too); largest: the largest disparity held.
     invalid: how invalid pixels are stored.
+    roles: the other outputs it may be: "depth" (a float depth map), "picture" (a colour
+        preview or plot), "costs" (the minimum-cost map), "cloud" (a point cloud).
+    stored: how a disparity map is stored in it, for help texts.
     """
 
     image: str | None = None
@@ -337,24 +340,33 @@ class Format:
     floats: bool = True
     largest: float = float("inf")
     invalid: str = ""
+    roles: frozenset = frozenset()
+    stored: str = ""
 
 
 FORMATS = {
     ".pfm": Format(read=_read_float_map,
                    whole=lambda disp: pfm_writer(disparity_to_file_float(disp)),
-                   stripes=_pfm_stripes, invalid="inf"),
+                   stripes=_pfm_stripes, invalid="inf",
+                   roles=frozenset({"depth", "costs"}), stored="float32, inf invalid"),
     ".npy": Format(image="npy", read=_read_float_map,
                    whole=lambda disp: _npy_writer(disparity_to_file_float(disp)),
-                   stripes=_npy_stripes, invalid="inf"),
+                   stripes=_npy_stripes, invalid="inf", roles=frozenset({"depth"}),
+                   stored="float32, inf invalid"),
     ".png": Format(image="pillow", read=_read_image_map,
                    whole=lambda disp: png_writer(kitti_png_values(disp)),
                    stripes=_png_stripes, floats=False, largest=PNG_MAX_DISPARITY,
-                   invalid="0"),
+                   invalid="0", roles=frozenset({"picture"}),
+                   stored="uint16 d*256, 0 invalid, KITTI"),
     ".tif": Format(image="tiff", read=_read_array_map, stripes=_tiff_stripes,
-                   invalid="NaN"),
+                   invalid="NaN", roles=frozenset({"depth"}),
+                   stored="tiled float32, NaN invalid"),
     ".tiff": Format(image="tiff", read=_read_array_map, stripes=_tiff_stripes,
-                    invalid="NaN"),
-    ".zarr": Format(image="zarr", read=_read_array_map, stripes="store", invalid="NaN"),
+                    invalid="NaN", roles=frozenset({"depth"}),
+                    stored="tiled float32, NaN invalid"),
+    ".zarr": Format(image="zarr", read=_read_array_map, stripes="store", invalid="NaN",
+                    stored="a zarr store, NaN invalid"),
+    ".ply": Format(roles=frozenset({"cloud"})),
     ".ppm": Format(image="pillow", read=_read_image_map),
     ".pgm": Format(image="pillow", read=_read_image_map),
     ".pnm": Format(image="pillow", read=_read_image_map),
@@ -374,6 +386,7 @@ def suffixes(role):
       "map"        a disparity map csw match writes (whole or in stripes)
       "stripes"    a disparity map written a stripe at a time
       "confidence" a confidence map (floats) csw match writes
+      and the other outputs' roles (Format.roles): "depth", "picture", "costs", "cloud"
     """
     tests = {
         "image": lambda f: f.image is not None,
@@ -384,7 +397,14 @@ def suffixes(role):
         "stripes": lambda f: f.stripes is not None,
         "confidence": lambda f: f.floats and (f.whole is not None or f.stripes is not None),
     }
-    return tuple(s for s, f in FORMATS.items() if tests[role](f))
+    test = tests.get(role, lambda f: role in f.roles)
+    return tuple(s for s, f in FORMATS.items() if test(f))
+
+
+def map_formats_text():
+    """The map formats and how each stores a map, for help texts: ".pfm (float32, inf
+    invalid), .png (...), ..." in the table's order."""
+    return ", ".join(f"{s} ({FORMATS[s].stored})" for s in suffixes("map"))
 
 
 def format_of(path, role):

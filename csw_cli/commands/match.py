@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from csw.io.formats import suffixes
+from csw.io.formats import map_formats_text, suffixes
 
 from .. import options as opt
 
@@ -64,9 +64,7 @@ def memory_size(ctx, param, value):
 @click.argument("left", type=click.Path(), required=False)
 @click.argument("right", type=click.Path(), required=False)
 @click.option("--output", "-o", type=click.Path(),
-              help="Disparity map: .pfm (float32, inf invalid), .png (uint16 d*256, "
-                   "0 invalid, KITTI), .npy (float32, inf invalid), .tif/.tiff (tiled "
-                   "float32, NaN invalid) or .zarr.")
+              help=f"Disparity map: {map_formats_text()}.")
 @click.option("--manifest", type=click.Path(dir_okay=False, exists=True),
               help="Many pairs: a CSV file of left,right[,name] lines (paths relative to "
                    "it). Needs --output-dir.")
@@ -114,8 +112,9 @@ def memory_size(ctx, param, value):
                    "e.g. .pfm: NAME.confidence.pfm.")
 @opt.calibration_options(beside_left=True)
 @click.option("--depth", type=click.Path(dir_okay=False),
-              help="Also write the depth map (.pfm, .npy, .tif), from the calibration. "
-                   "Many pairs: the format, e.g. .pfm: NAME.depth.pfm beside each map.")
+              help=f"Also write the depth map ({', '.join(suffixes('depth'))}), from the "
+                   "calibration. Many pairs: the format, e.g. .pfm: NAME.depth.pfm beside "
+                   "each map.")
 @click.option("--cloud", type=click.Path(dir_okay=False),
               help="Also write the point cloud (binary PLY, coloured from LEFT). Many "
                    "pairs: .ply, for NAME.ply beside each map.")
