@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test bench bench-batch bench-peers bench-scale bench-startup tradeoff quality lint \
+.PHONY: run test coverage bench bench-batch bench-peers bench-scale bench-startup tradeoff quality lint \
 	format clean
 
 $(PY):
@@ -31,6 +31,9 @@ run: $(VENV)/.installed-base
 
 test: $(VENV)/.installed-test
 	scripts/test.sh
+
+coverage: $(VENV)/.installed-test
+	scripts/coverage.sh
 
 bench: $(VENV)/.installed-dev
 	scripts/reproduce_table2.sh

@@ -12,7 +12,7 @@ True
 Layout, one folder a concept:
   config/    the option table and presets (params), tau, the paper's settings
   matching/  csw.Matcher and csw.match (matcher), what runs before the first row (setup),
-             the stages around the kernels (pipeline), the range found from the pair
+             the stages around the kernels (stages, pipeline), the range found from the pair
              (disparity_range), a pair of files in and its outputs out (files)
   scale/     many pairs (batch, executor, distributed) and pairs in row stripes (tiled)
   camera/    calibrations (calibration), depth and point clouds (geometry)

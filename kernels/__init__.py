@@ -57,15 +57,5 @@ def entries(engine, cost, pixels, window, census_window, csw, right_map, extras,
         module.entries(code, compared, window, csw, right_map or lr_check, extras, dmin)
 
 
-def __getattr__(name):
-    """The engines' entries on first use (they import numpy only)."""
-    if name == "ENGINES":
-        return _engines()
-    if name in ("match_fast", "match_window"):
-        return _engines()[name.split("_")[1]]
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-__all__ = ["COSTS", "ENGINES", "ENGINE_NAMES", "INVALID", "NEG_INVALID", "RULES",
-           "MatchResult", "candidate_count", "contract", "entries", "invalid", "match",
-           "match_fast", "match_window", "native"]
+__all__ = ["COSTS", "ENGINE_NAMES", "INVALID", "NEG_INVALID", "RULES", "MatchResult",
+           "candidate_count", "contract", "entries", "invalid", "match", "native"]

@@ -110,7 +110,7 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     outputs = {"output": output, "confidence": confidence, "preview": preview,
                "cost_map": cost_map, "depth": depth, "cloud": cloud,
                "depth_preview": depth_preview}
-    check_outputs({"left": left, "right": right,
+    check_pair_outputs({"left": left, "right": right,
                    "calib": calib if isinstance(calib, (str, Path)) else None}, outputs)
     three_d = [name for name in ("depth", "cloud", "depth_preview") if outputs[name]]
     check_max_depth(max_depth)
@@ -198,7 +198,7 @@ def role_suffixes(role):
     return COMPANIONS.get(role) or suffixes("confidence" if role == "confidence" else "map")
 
 
-def check_outputs(inputs, outputs):
+def check_pair_outputs(inputs, outputs):
     """Before any work: csw.io.safety.check_outputs with each output's suffixes by its
     role (role_suffixes)."""
     safety.check_outputs(inputs, outputs, {name: role_suffixes(name) for name in outputs})

@@ -148,7 +148,7 @@ def _inside(path, folder):
     return os.path.dirname(real) == base
 
 
-def check_outputs(jobs, outputs, out_dir, summary, calib=None):
+def check_batch_outputs(jobs, outputs, out_dir, summary, calib=None):
     """Before any work: every output (per job, a dict of role -> path) resolves, links
     followed, to a regular file (or nothing yet) directly in ``out_dir``; no two outputs,
     of one pair or of two, are one file; and neither an output nor the summary is an
@@ -321,7 +321,7 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     outputs = [{"map": out_dir / f"{job.name}{suffix}",
                 **{role: out_dir / pattern.format(name=job.name)
                    for role, pattern in extras.items()}} for job in jobs]
-    check_outputs(jobs, outputs, out_dir, summary, calib_path)
+    check_batch_outputs(jobs, outputs, out_dir, summary, calib_path)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -11,7 +11,7 @@ from csw.config.params import csw_margin_for
 from csw.kernels.census import census_transform
 from oracle import census, oracle_match
 
-ENGINES = sorted(kernels.ENGINES)
+ENGINES = list(kernels.ENGINE_NAMES)
 
 
 @pytest.mark.parametrize("size, pattern, bits",

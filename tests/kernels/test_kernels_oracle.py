@@ -9,7 +9,7 @@ from csw import kernels
 from csw.config.params import csw_margin_for
 from oracle import oracle_match
 
-ENGINES = sorted(kernels.ENGINES)
+ENGINES = list(kernels.ENGINE_NAMES)
 
 
 def random_pair(rng, height, width, dtype, shift=3, noise=0):

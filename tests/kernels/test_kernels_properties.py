@@ -7,7 +7,7 @@ from csw import kernels
 from csw.data.synth import render
 from oracle import oracle_match
 
-ENGINES = sorted(kernels.ENGINES)
+ENGINES = list(kernels.ENGINE_NAMES)
 
 
 @pytest.fixture(scope="module")
