@@ -5,6 +5,9 @@ ctypes function (which releases the GIL while it runs)."""
 import ctypes
 import threading
 
+from .signature import Signature
+from .store import cache_dir, lock, store, verified
+
 _ENGINES = []  # llvmlite execution engines, kept alive with the code they hold
 
 
@@ -69,12 +72,26 @@ def _target_machine():
         opt=3, jit=True)
 
 
+GIL_HELPERS = "gil-helpers"  # their entry in the kernel cache
+
+
 def _gil_helpers():
-    """The addresses of csw_gil_ensure and csw_gil_release (see _GIL_IR)."""
+    """The addresses of csw_gil_ensure and csw_gil_release (see _GIL_IR), loaded from
+    the kernel cache as object code like the entries: compiling the IR in every process
+    would start LLVM's code generator, 12 MB more at the peak of a warm run."""
     import llvmlite.binding as llvm
 
-    module = llvm.parse_assembly(_GIL_IR)
-    engine = llvm.create_mcjit_compiler(module, _target_machine())
+    folder, found = cache_dir(), {}
+    if not verified(folder, GIL_HELPERS, found):
+        with lock(folder):
+            if not verified(folder, GIL_HELPERS, found, discard=True):
+                code = _target_machine().emit_object(llvm.parse_assembly(_GIL_IR))
+                description = dict(Signature((), ()).describe(), imports=[])
+                store(folder, GIL_HELPERS, "csw_gil_ensure", (description, code))
+                verified(folder, GIL_HELPERS, found)
+    engine = llvm.create_mcjit_compiler(llvm.parse_assembly(""), _target_machine())
+    engine.add_object_file(llvm.ObjectFileRef.from_data(
+        (folder / f"{GIL_HELPERS}.o").read_bytes()))
     engine.finalize_object()
     _ENGINES.append(engine)
     return {"numba_gil_ensure": engine.get_function_address("csw_gil_ensure"),

@@ -73,7 +73,10 @@ def test_missing_entries_compile_in_worker_processes_or_here_if_they_fail(tmp_pa
     assert workers["maps"] == broken["maps"]
     for cache in ("workers", "broken"):
         assert [p.name for p in (tmp_path / cache).rglob("*.tmp")] == []
-        assert len(list((tmp_path / cache).rglob("*.json"))) == 3
+        stored = [p.stem for p in (tmp_path / cache).rglob("*.json")]
+        # the three entries (and, where Numba is not loaded, the GIL helpers their error
+        # path links to: kernels/loader.py)
+        assert len([name for name in stored if name != "gil-helpers"]) == 3
 
 
 def test_compile_workers_ignore_a_package_of_the_same_name_in_the_current_folder(tmp_path):
