@@ -194,6 +194,9 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
                                  **three_d, **settings)
     except OSError as exc:
         raise write_error(exc) from None
+    written = [output, preview, cost_map, confidence, three_d["depth"], three_d["cloud"],
+               three_d["depth_preview"]]
+    click.echo("wrote " + ", ".join(str(path) for path in written if path), err=True)
     click.echo(summary_line(result), err=True)
 
 

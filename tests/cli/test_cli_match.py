@@ -238,3 +238,15 @@ def test_engines_write_identical_maps(pair_files, tmp_path):
         assert run("match", left, right, "-o", tmp_path / f"{engine}.pfm", "--dmax", 16,
                    "--csw", "--tau", 700, "--engine", engine).exit_code == 0
     assert (tmp_path / "window.pfm").read_bytes() == (tmp_path / "fast.pfm").read_bytes()
+
+
+def test_a_match_names_the_files_it_wrote(pair_files, tmp_path):
+    """Before the summary, a line names every output, so a newcomer knows what to open."""
+    left, right = pair_files
+    outputs = [tmp_path / "d.pfm", tmp_path / "v.png", tmp_path / "c.pfm"]
+    result = run("match", left, right, "-o", outputs[0], "--preview", outputs[1],
+                 "--confidence", outputs[2], "--dmax", 16)
+    assert result.exit_code == 0, result.output
+    assert result.stderr.strip().splitlines()[-2] == \
+        "wrote " + ", ".join(str(path) for path in outputs)
+    assert all(path.is_file() for path in outputs)
