@@ -54,7 +54,8 @@ def data_dir():
     folder = Path(value) if value else None
     if folder is None or not (folder / "tsukuba").is_dir():
         reason = (f"Middlebury data not found (CSW_DATA_DIR={value!r}); point CSW_DATA_DIR "
-                  "at a folder laid out like ../shared/datasets")
+                  "at a folder holding the registered datasets (tsukuba/, cones/ ...: "
+                  "see docs/datasets.md)")
         if os.environ.get("CSW_REQUIRE_DATA") == "1":
             pytest.fail(reason)
         pytest.skip(reason)
