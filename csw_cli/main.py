@@ -62,7 +62,7 @@ def cli():
     \b
     Examples:
       csw synth out/scene
-      csw match out/scene/left.png out/scene/right.png -o out/disp.pfm --csw
+      csw match out/scene/left.png out/scene/right.png -o out/disp.pfm --preview out/disp.png
     """
 
 

@@ -95,7 +95,9 @@ def memory_size(ctx, param, value):
 @opt.option("cost")
 @opt.option("window", short="-w")
 @opt.option("dmin")
-@opt.option("dmax")
+@opt.option("dmax", help=opt.params.OPTIONS["dmax"].help + " [default: the ndisp of a "
+                         "calib.txt beside LEFT (or --calib's), else "
+                         f"{opt.params.DEFAULTS['dmax']}]")
 @opt.option("csw")
 @opt.option("csw_rule")
 @opt.option("tau")
