@@ -13,11 +13,6 @@ import numpy as np
 from ..config.params import OptionError
 from ..io.formats import as_float_disparity, suffixes
 
-# A turbo-like ramp, dark blue to dark red, by linear interpolation between these colours
-# (sampled from Google's Turbo colormap), so no plotting library is needed.
-RAMP = np.array([[48, 18, 59], [70, 117, 237], [27, 208, 213], [97, 252, 108],
-                 [210, 233, 53], [254, 155, 45], [218, 57, 7], [122, 4, 3]], np.float64)
-
 
 def _homogeneous(disparity, calib):
     """(X, Y, Z, W) of every pixel, float64 (H, W) each, and the valid pixels: a finite
@@ -122,37 +117,13 @@ def write_ply(path, points, colours=None):
     atomic_write(path, ply_writer(points, colours))
 
 
-def preview(depth_map):
-    """uint8 (H + bar, W, 3): the depth map in a turbo-like ramp, near warm and far cool,
-    over its 1st to 99th percentile, invalid black; below it a colour bar labelled with
-    the depths at its ends, so that the picture says what it shows."""
-    from PIL import Image, ImageDraw, ImageFont
+def preview(depth_map, units=None):
+    """uint8 (H + bar, W, 3): the depth map in Turbo, near red and far blue, over its 1st
+    to 99th percentile, invalid black, with a colour bar of depths in ``units``
+    (csw.io.pictures.depth_picture)."""
+    from ..io.pictures import depth_picture
 
-    values = depth_map[np.isfinite(depth_map)]
-    near, far = (np.percentile(values, (1, 99)) if values.size else (0.0, 1.0))
-    far = max(far, near + 1e-6)
-    height, width = depth_map.shape
-    t = 1 - np.clip((np.nan_to_num(depth_map, nan=far) - near) / (far - near), 0, 1)
-    picture = _ramp(t)
-    picture[~np.isfinite(depth_map)] = 0
-    bar = np.zeros((28, width, 3), np.uint8)
-    bar[4:14] = _ramp(1 - np.linspace(0, 1, width))[None]
-    canvas = Image.fromarray(np.vstack([picture, bar]))
-    draw = ImageDraw.Draw(canvas)
-    font = ImageFont.load_default()
-    draw.text((2, height + 15), f"{near:.3g} (near)", fill=(255, 255, 255), font=font)
-    label = f"(far) {far:.3g}"
-    draw.text((max(width - 7 * len(label) - 2, 2), height + 15), label, fill=(255, 255, 255),
-              font=font)
-    return np.asarray(canvas)
-
-
-def _ramp(t):
-    """RGB uint8 of the ramp at t in 0..1 (0 dark blue, 1 dark red)."""
-    position = np.asarray(t, np.float64) * (len(RAMP) - 1)
-    low = np.floor(position).astype(int).clip(0, len(RAMP) - 2)
-    frac = (position - low)[..., None]
-    return np.round(RAMP[low] * (1 - frac) + RAMP[low + 1] * frac).astype(np.uint8)
+    return depth_picture(depth_map, units)
 
 
 DEPTH_SUFFIXES = suffixes("depth")  # float maps written whole
@@ -166,22 +137,24 @@ def writers(disparity, calib, depth_path=None, cloud_path=None, preview_path=Non
     (PNG) and the point cloud (PLY, coloured from ``image`` where given)."""
     items = []
     if depth_path is not None or preview_path is not None:
-        items += _depth_writers(depth(disparity, calib, units), depth_path, preview_path)
+        items += _depth_writers(depth(disparity, calib, units), depth_path, preview_path,
+                                units or calib.units)
     if cloud_path is not None:
         points, colours = point_cloud(disparity, calib, image, max_depth, units)
         items.append((Path(cloud_path), ply_writer(points, colours)))
     return items
 
 
-def _depth_writers(z, depth_path, preview_path):
-    """(path, write_to) of the depth map z and of its preview, where asked for."""
+def _depth_writers(z, depth_path, preview_path, units=None):
+    """(path, write_to) of the depth map z (in ``units``, None: unknown) and of its
+    preview, where asked for."""
     from ..io.formats import float_map_writer, png_writer
 
     items = []
     if depth_path is not None:
         items.append((Path(depth_path), float_map_writer(depth_path, z)))
     if preview_path is not None:
-        items.append((Path(preview_path), png_writer(preview(z))))
+        items.append((Path(preview_path), png_writer(preview(z, units))))
     return items
 
 
@@ -192,7 +165,7 @@ def depth_file(disparity, output, calib, units=None, preview_path=None):
     from ..io.formats import read_disparity
 
     z = depth(read_disparity(disparity), calib, units)
-    atomic_write_all(_depth_writers(z, output, preview_path))
+    atomic_write_all(_depth_writers(z, output, preview_path, units or calib.units))
     return z
 
 

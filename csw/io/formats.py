@@ -64,21 +64,12 @@ def kitti_png_values(disp):
 
 
 def colorize(disp, dmax, dmin=0):
-    """uint8 (H, W, 3) visualisation of a disparity map (any of csw's conventions): a
-    blue-to-red ramp over dmin..dmax, invalid black. Piecewise-linear 'jet' anchors, so
-    no plotting library is needed."""
-    anchors = np.array([[0, 0, 128], [0, 0, 255], [0, 255, 255], [255, 255, 0],
-                        [255, 0, 0], [128, 0, 0]], dtype=np.float64)
-    disp = as_float_disparity(disp)
-    invalid = np.isnan(disp)
-    t = np.clip((np.nan_to_num(disp, nan=dmin) - dmin) / max(dmax - dmin, 1), 0, 1) \
-        * (len(anchors) - 1)
-    lo = np.floor(t).astype(int)
-    hi = np.minimum(lo + 1, len(anchors) - 1)
-    frac = (t - lo)[..., None]
-    rgb = anchors[lo] * (1 - frac) + anchors[hi] * frac
-    rgb[invalid] = 0
-    return np.round(rgb).astype(np.uint8)
+    """uint8 (H, W, 3) of a disparity map (any of csw's conventions): Turbo over
+    dmin..dmax, invalid black (csw.io.pictures; its ``disparity_picture`` adds the colour
+    bar)."""
+    from .pictures import colour
+
+    return colour(as_float_disparity(disp), dmin, dmax)
 
 
 # ---------------------------------------------------------------------------- PFM
@@ -288,17 +279,23 @@ def _png_stripes(path, shape, blocks):
 
 
 def preview_stripes(shape, blocks, dmax, dmin=0):
-    """A ``write_to(tmp)`` for an 8-bit colour PNG of a map (see colorize), a band at a
-    time."""
+    """A ``write_to(tmp)`` for the 8-bit colour PNG of a map with its colour bar
+    (csw.io.pictures.disparity_picture), the map a band at a time."""
+    import itertools
+
     import png
 
+    from .pictures import bar
+
     height, width = shape
+    under = bar(width, dmin, dmax, "disparity (pixels)")
 
     def write(tmp):
-        rows = (row.reshape(-1) for _, block in blocks(TIFF_TILE)
-                for row in colorize(block, dmax, dmin))
+        rows = itertools.chain((row.reshape(-1) for _, block in blocks(TIFF_TILE)
+                                for row in colorize(block, dmax, dmin)),
+                               (row.reshape(-1) for row in under))
         with open(tmp, "wb") as f:
-            png.Writer(width, height, greyscale=False, bitdepth=8).write(f, rows)
+            png.Writer(width, height + len(under), greyscale=False, bitdepth=8).write(f, rows)
     return write
 
 

@@ -18,13 +18,13 @@ from ..io import safety
 from ..io.atomic import atomic_write_all
 from ..io.formats import (
     check_range,
-    colorize,
     disparity_writer,
     pfm_writer,
     png_writer,
     suffixes,
 )
 from ..io.images import ImageError, read_colour, read_image
+from ..io.pictures import disparity_picture
 from ..io.sources import open_source
 from ..scale.tiled import match_tiled, too_big_for_whole
 from . import disparity_range
@@ -146,7 +146,8 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     writers = [(output, disparity_writer(output, disp))]
     if preview is not None:
         used = result.settings
-        writers.append((preview, png_writer(colorize(disp, used["dmax"], used["dmin"]))))
+        writers.append((preview, png_writer(disparity_picture(disp, used["dmin"],
+                                                              used["dmax"]))))
     if cost_map is not None:
         m = np.where(result.min_cost >= 0, result.min_cost, np.inf).astype(np.float32)
         writers.append((cost_map, pfm_writer(m)))

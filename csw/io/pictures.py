@@ -1,0 +1,118 @@
+"""Pictures of maps a person can read: a disparity or depth map in the Turbo colormap,
+invalid pixels black (a colour Turbo does not use), and under it a colour bar with its
+values, its units and the range as numbers, in type sized to the picture.
+
+Turbo (Google, 2019) is held here as a small table, so no plotting library is needed;
+tests/library/test_pictures.py checks it against matplotlib's.
+"""
+
+import numpy as np
+
+INVALID = (0, 0, 0)
+TEXT = (235, 235, 235)
+BACKGROUND = (72, 72, 72)  # lighter than the invalid black, darker than the text
+TICKS = 5  # labelled values on the bar, its ends included
+
+# Turbo at 33 evenly spaced points of 0..1 (Google's table, every 8th entry); linear
+# between them, it stays within 3 levels of the full table.
+_TURBO_POINTS = np.array([
+    [48, 18, 59], [57, 42, 115], [64, 64, 162], [68, 86, 199], [70, 107, 227],
+    [70, 128, 246], [66, 148, 255], [55, 168, 250], [40, 188, 235], [28, 205, 216],
+    [24, 221, 194], [31, 233, 175], [50, 242, 152], [78, 249, 125], [109, 254, 98],
+    [139, 255, 75], [164, 252, 60], [183, 247, 53], [203, 237, 52], [221, 224, 55],
+    [236, 209, 58], [247, 193, 58], [253, 174, 53], [254, 153, 44], [251, 129, 34],
+    [245, 105, 24], [236, 83, 15], [225, 65, 9], [210, 49, 5], [193, 35, 2], [172, 23, 1],
+    [149, 13, 1], [122, 4, 3]], np.float64)
+TURBO = np.round(np.stack(
+    [np.interp(np.linspace(0, 1, 256), np.linspace(0, 1, len(_TURBO_POINTS)), channel)
+     for channel in _TURBO_POINTS.T], axis=1)).astype(np.uint8)  # (256, 3)
+
+
+def turbo(t):
+    """uint8 (..., 3): Turbo at t (float, 0..1; clipped), t=0 dark blue, 1 dark red."""
+    index = np.round(np.clip(np.asarray(t, np.float64), 0, 1) * 255).astype(np.intp)
+    return TURBO[index]
+
+
+def colour(values, low, high, reverse=False):
+    """uint8 (H, W, 3): float ``values`` (NaN invalid) in Turbo over low..high (clipped),
+    invalid black; ``reverse`` puts low at the red end."""
+    span = max(high - low, 1e-12)
+    # In float64 whatever the map's type, so that a map and its stripes colour alike.
+    t = (np.nan_to_num(np.asarray(values, np.float64), nan=low) - low) / span
+    picture = turbo(1 - t if reverse else t)
+    picture[~np.isfinite(values)] = INVALID
+    return picture
+
+
+def font_size(width):
+    """Type a reader can read on a picture ``width`` wide, shown fitted to a screen."""
+    return int(np.clip(round(width / 38), 12, 72))
+
+
+def number(value):
+    """A bar's value, short and without an exponent for any depth or disparity."""
+    size = abs(value)
+    if size >= 100 or value == round(value):
+        return f"{value:.0f}"
+    return f"{value:.1f}" if size >= 10 else f"{value:.3g}"
+
+
+def bar(width, low, high, label, reverse=False):
+    """uint8 (h, width, 3): the colour bar of a picture ``width`` wide showing low..high:
+    the ramp, TICKS values under it, and a line naming ``label`` (what and its units),
+    the range, and the invalid colour."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    size = font_size(width)
+    font = ImageFont.load_default(size=size)
+    margin = max(size // 2, 4)
+    ramp_h = max(size, 8)
+    height = margin + ramp_h + size // 3 + 2 * (size + margin)
+    canvas = Image.new("RGB", (width, height), BACKGROUND)
+    draw = ImageDraw.Draw(canvas)
+    left, right = margin, max(width - margin, margin + 2)
+    t = np.linspace(0, 1, right - left)
+    ramp = turbo(1 - t if reverse else t)
+    canvas.paste(Image.fromarray(np.repeat(ramp[None], ramp_h, axis=0)), (left, margin))
+    y = margin + ramp_h + size // 3
+    for k in range(TICKS):
+        value = low + (high - low) * k / (TICKS - 1)
+        x = left + (right - left - 1) * k / (TICKS - 1)
+        text = number(value)
+        text_w = draw.textlength(text, font=font)
+        anchor_x = min(max(x - text_w / 2, 0), width - text_w)
+        draw.line([(x, y - size // 3), (x, y - 1)], fill=TEXT, width=max(size // 12, 1))
+        draw.text((anchor_x, y), text, fill=TEXT, font=font)
+    y += size + margin // 2
+    swatch = size
+    draw.rectangle([left, y, left + swatch, y + swatch], fill=INVALID, outline=TEXT)
+    caption = f"invalid    {label}: {number(low)} .. {number(high)}"
+    draw.text((left + swatch + margin // 2, y), caption, fill=TEXT, font=font)
+    return np.asarray(canvas)
+
+
+def disparity_picture(disparity, dmin, dmax):
+    """uint8 (H + bar, W, 3): a disparity map (float32 (H, W), NaN invalid) in Turbo over
+    the range searched, near (large d) red, with its bar."""
+    return np.vstack([colour(disparity, dmin, dmax),
+                      bar(disparity.shape[1], dmin, dmax, "disparity (pixels)")])
+
+
+def depth_range(depth):
+    """(near, far): the 1st and 99th percentiles of a depth map's valid values (a few
+    far outliers would otherwise wash the picture out)."""
+    values = depth[np.isfinite(depth)]
+    if not values.size:
+        return 0.0, 1.0
+    near, far = (float(v) for v in np.percentile(values, (1, 99)))
+    return near, max(far, near + 1e-6)
+
+
+def depth_picture(depth, units):
+    """uint8 (H + bar, W, 3): a depth map (float32 (H, W), NaN invalid) in Turbo over its
+    1st to 99th percentile, near red and far blue, with its bar in ``units``."""
+    near, far = depth_range(depth)
+    label = f"depth ({units})" if units else "depth (the calibration's units)"
+    return np.vstack([colour(depth, near, far, reverse=True),
+                      bar(depth.shape[1], near, far, label, reverse=True)])
