@@ -12,24 +12,28 @@ import click
 # Command name -> (module in commands/, function), with its one-line help: `csw --help`
 # lists them without importing any.
 COMMANDS = {
-    "bench": ("bench", "bench", "Score and time plain vs CSW matching (the paper's TABLE II)."),
-    "cloud": ("depth", "cloud", "Turn a disparity map into a point cloud (PLY)."),
-    "compile": ("compile", "compile_", "Compile the presets' kernels ahead (CI, Docker)."),
-    "datasets": ("datasets", "datasets", "List the registered datasets."),
-    "depth": ("depth", "depth", "Turn a disparity map into depth, with a calibration."),
-    "hist": ("hist", "hist", "Histogram of the minimum-cost map m (the paper's Fig. 9)."),
+    # What a newcomer needs first ...
     "match": ("match", "match", "Compute disparity maps for rectified pairs."),
-    "score": ("score", "score", "Score a disparity map against ground truth."),
-    "sweep": ("sweep", "sweep", "Sweep tau and CSW rules: work saved against bad-1."),
+    "depth": ("depth", "depth", "Turn a disparity map into depth, with a calibration."),
+    "cloud": ("depth", "cloud", "Turn a disparity map into a point cloud (PLY)."),
     "synth": ("synth", "synth", "Write a synthetic stereo pair with exact ground truth."),
+    "score": ("score", "score", "Score a disparity map against ground truth."),
+    # ... then benchmarks, experiments and set-up.
+    "bench": ("bench", "bench", "Score and time plain vs CSW matching (the paper's TABLE II)."),
+    "datasets": ("datasets", "datasets", "List the registered datasets."),
+    "sweep": ("sweep", "sweep", "Sweep tau and CSW rules: work saved against bad-1."),
+    "hist": ("hist", "hist", "Histogram of the minimum-cost map m (the paper's Fig. 9)."),
+    "compile": ("compile", "compile_", "Compile every documented option's kernels ahead (CI, "
+                                       "Docker)."),
 }
+FIRST = ["match", "depth", "cloud", "synth", "score"]  # listed as "Commands", the rest after
 
 
 class LazyGroup(click.Group):
     """A group whose commands are imported when they are run or asked for help."""
 
     def list_commands(self, ctx):
-        return sorted(COMMANDS)
+        return list(COMMANDS)
 
     def get_command(self, ctx, name):
         if name not in COMMANDS:
@@ -49,9 +53,11 @@ class LazyGroup(click.Group):
             return super().invoke(ctx)
 
     def format_commands(self, ctx, formatter):
-        rows = [(name, COMMANDS[name][2]) for name in self.list_commands(ctx)]
-        with formatter.section("Commands"):
-            formatter.write_dl(rows)
+        for title, names in (("Commands", FIRST),
+                             ("Benchmarks, experiments and set-up",
+                              [n for n in COMMANDS if n not in FIRST])):
+            with formatter.section(title):
+                formatter.write_dl([(name, COMMANDS[name][2]) for name in names])
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -63,6 +69,7 @@ def cli():
     Examples:
       csw synth out/scene
       csw match out/scene/left.png out/scene/right.png -o out/disp.pfm --preview out/disp.png
+      csw match left.png right.png -o disp.pfm --depth depth.pfm --calib calib.txt
     """
 
 

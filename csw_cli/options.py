@@ -81,6 +81,34 @@ class LibraryType(click.ParamType):
             self.fail(str(exc), param, ctx)
 
 
+class Sectioned(click.Command):
+    """A command whose --help lists its options in sections, in the order a user reads
+    them (``sections``: (title, option names) pairs); an option in none of them is listed
+    last, under "Other options"."""
+
+    sections = ()
+
+    def format_options(self, ctx, formatter):
+        records = {p.name: p.get_help_record(ctx) for p in self.get_params(ctx)
+                   if isinstance(p, click.Option)}
+        placed = set()
+        for title, names in self.sections:
+            rows = [records[n] for n in names if records.get(n)]
+            placed.update(names)
+            if rows:
+                with formatter.section(title):
+                    formatter.write_dl(rows)
+        rest = [record for name, record in records.items() if record and name not in placed]
+        if rest:
+            with formatter.section("Other options"):
+                formatter.write_dl(rest)
+
+
+def sectioned(*sections):
+    """The ``cls`` for a click.command whose help has these sections (see Sectioned)."""
+    return type("SectionedCommand", (Sectioned,), {"sections": sections})
+
+
 def comma_list(*allowed):
     """A callback that reads a comma-separated option value as a list of the allowed
     names, in the order given, each once.  None (not given) stays None."""
@@ -247,7 +275,11 @@ def calibration_options(beside_left=False):
                           "[default: 0]."),
         click.option("--units", type=click.Choice(list(UNITS)),
                      help="Depth and points in these units [default: the calibration's: "
-                          "mm for Middlebury, m for KITTI]."),
+                          "mm for Middlebury, m for KITTI; an OpenCV Q's or values given "
+                          "by hand are taken to be in these units]."),
+        click.option("--calib-units", type=click.Choice(list(UNITS)),
+                     help="The units of a calibration that doesn't say them (an OpenCV Q, "
+                          "--baseline), so that --units converts from them."),
     ]
     def decorate_all(command):
         for decorate in reversed(decorators):
@@ -262,4 +294,4 @@ def calibration(ctx_params):
 
     with library_errors():
         return from_options(*(ctx_params[k] for k in ("calib", "focal", "baseline", "cx",
-                                                       "cy", "doffs")))
+                                                       "cy", "doffs", "calib_units")))

@@ -11,7 +11,7 @@ the left camera's frame).
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -90,16 +90,32 @@ class Calibration:
                                        f"{shape[0]}; use the calibration of these images")
 
     def scale_to(self, units):
-        """The factor from the calibration's units to ``units`` (1 for None)."""
+        """The factor from the calibration's units to ``units`` (1 for None).  A
+        calibration that doesn't say its units (an OpenCV Q, values given by hand, where
+        depth comes out in the baseline's units) is taken to be in ``units``: name them
+        with :meth:`with_units` to convert."""
         if units is None:
             return 1.0
         if units not in UNITS:
             raise OptionError("units", f"unknown units {units!r}; use {', '.join(UNITS)}")
         if self.units is None:
-            raise OptionError("units", f"{self.source} doesn't say its units (an OpenCV Q "
-                                       "or given values are in the baseline's own units); "
-                                       "leave the units out")
+            return 1.0
         return UNITS[self.units] / UNITS[units]
+
+    def with_units(self, units):
+        """This calibration with its units named (None: as it is): for a source that
+        doesn't say them (an OpenCV Q, values given by hand).  OptionError when the source
+        says other units."""
+        if units is None or units == self.units:
+            return self
+        if units not in UNITS:
+            raise OptionError("calib_units", f"unknown units {units!r}; use "
+                                             f"{', '.join(UNITS)}")
+        if self.units is not None:
+            raise OptionError("calib_units", f"{self.source} says its units are "
+                                             f"{self.units}, not {units}; drop the "
+                                             "calibration's units (--units converts)")
+        return replace(self, units=units)
 
     def describe(self):
         """One line for summaries: the source, f, B and doffs."""
@@ -123,10 +139,22 @@ def given(focal, baseline, cx=None, cy=None, doffs=0.0, units=None):
                        float(doffs or 0.0), units, source="the values given")
 
 
-def from_options(calib=None, focal=None, baseline=None, cx=None, cy=None, doffs=None):
+def from_options(calib=None, focal=None, baseline=None, cx=None, cy=None, doffs=None,
+                 calib_units=None):
     """The calibration the command line names: a file (``calib``), or values given by
-    hand (focal and baseline at least), or None; OptionError for both at once or for a
-    half-given set of values."""
+    hand (focal and baseline at least), or None; its units named by ``calib_units`` where
+    it doesn't say them.  OptionError for both at once, a half-given set of values, or
+    units that contradict the file's."""
+    found = _from_options(calib, focal, baseline, cx, cy, doffs)
+    if found is None:
+        if calib_units is not None:
+            raise OptionError("calib_units", "the calibration's units need a calibration "
+                                             "(--calib, or --focal and --baseline)")
+        return None
+    return found.with_units(calib_units)
+
+
+def _from_options(calib, focal, baseline, cx, cy, doffs):
     values = {"focal": focal, "baseline": baseline, "cx": cx, "cy": cy, "doffs": doffs}
     named = [k for k, v in values.items() if v is not None]
     if calib is not None and named:

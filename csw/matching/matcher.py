@@ -13,7 +13,7 @@ import numpy as np
 from .. import kernels
 from ..config.params import resolve
 from ..io.images import read_image, to_gray
-from .disparity_range import shrink
+from .disparity_range import crowded_end, shrink
 from .pipeline import match_rows
 from .pipeline import run as run_pipeline
 from .setup import load_kernels, set_up
@@ -35,6 +35,8 @@ class Result:
         decided and ``range_source`` saying where it came from, ``tau`` resolved to a
         number (-1 when CSW is off) and ``tau_source`` saying where it came from.
     seconds: the match itself; compile_seconds: JIT compile or cache load before it.
+    notes: lines for the user about the result (the range looks cut short...); the CLI
+        prints them on stderr.
     """
 
     disparity: np.ndarray
@@ -45,6 +47,7 @@ class Result:
     settings: dict = field(default_factory=dict)
     seconds: float = 0.0
     compile_seconds: float = 0.0
+    notes: list = field(default_factory=list)
     stripes = None  # matched whole (csw.scale.tiled's results give their stripe count)
 
     @property
@@ -196,5 +199,6 @@ def _match(config, left, right, want_confidence):
     if confidence is None:  # not computed: zeros that take no memory (a fresh 4 bytes a
         # pixel per match made glibc return and fault in the heap's top on every call)
         confidence = np.broadcast_to(np.float32(0), disparity.shape)
+    note = crowded_end(disparity, ready.settings)
     return Result(disparity, confidence, raw.min_cost, raw.evaluated, raw.candidates,
-                  ready.settings, seconds, ready.compile_seconds)
+                  ready.settings, seconds, ready.compile_seconds, [note] if note else [])

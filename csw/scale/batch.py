@@ -222,6 +222,7 @@ def run_job(task, config, calib=None, three_d=None):
                 match_seconds=result.seconds, invalid=100.0 * result.invalid_share,
                 work_saved=100.0 * result.work_saved, range=[s["dmin"], s["dmax"]],
                 range_source=s["range_source"], stripes=result.stripes,
+                notes=list(getattr(result, "notes", [])),
                 calibration=calibration.as_dict() if calibration else None,
                 **{role: str(path) for role, path in outputs.items() if role != "map"})
 
@@ -359,6 +360,9 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         log.close()
 
 
+NOTED_KEPT = 20  # notes on pairs (a range cut short...) a batch's report repeats
+
+
 class PairLog:
     """A batch's summary entries as they come, kept on disk (a temporary file beside the
     summary) with only their offsets, counts and failures in memory: a million-pair
@@ -369,6 +373,8 @@ class PairLog:
         self.offsets = np.full(total, -1, np.int64)
         self.counts = {"ok": 0, "skipped": 0, "failed": 0}
         self.failed = []
+        self.noted = []  # (name, note) of the first NOTED_KEPT notes; all are in the summary
+        self.notes = 0
 
     @property
     def done(self):
@@ -380,6 +386,10 @@ class PairLog:
         self.counts[entry["status"]] += 1
         if entry["status"] == "failed":
             self.failed.append(entry)
+        for note in entry.get("notes", ()):
+            self.notes += 1
+            if len(self.noted) < NOTED_KEPT:
+                self.noted.append((entry["name"], note))
 
     def lines(self):
         """Each entry's JSON line, in the jobs' order."""
@@ -419,7 +429,8 @@ class SummaryPairs(Sequence):
 
 def write_summary(path, log, options, interrupted=False):
     """Write the JSON summary atomically, one pair a line in the jobs' order, and return
-    the report: counts, options, interrupted, failed (the failed pairs' entries) and
+    the report: counts, options, interrupted, failed (the failed pairs' entries), noted
+    ((name, note) of the first NOTED_KEPT notes on pairs) and notes (how many), and
     pairs (every entry, read from the summary when asked for)."""
     head = {"counts": log.counts, "interrupted": interrupted, "options": options}
 
@@ -431,4 +442,5 @@ def write_summary(path, log, options, interrupted=False):
                 out.write((b",\n" if i else b"") + line)
             out.write(b"\n  ]\n}\n")
     atomic_write(path, write)
-    return dict(head, failed=list(log.failed), pairs=SummaryPairs(path, log.done))
+    return dict(head, failed=list(log.failed), noted=list(log.noted), notes=log.notes,
+                pairs=SummaryPairs(path, log.done))

@@ -22,7 +22,7 @@ PRESET = params.EXPERIMENT_PRESET
 @opt.option("window", short="-w", preset=PRESET)
 @opt.option("dmin")
 @opt.option("dmax", help="Largest disparity [default: the dataset's range, or "
-                         f"{params.DEFAULTS['dmax']}].")
+                         f"{params.FIXED_DMAX}].")
 @opt.option("csw", help="Histogram the CSW run's m instead of plain matching's.")
 @opt.option("tau", help="tau for --csw [default: the paper's rule].")
 @click.option("--plot", type=click.Path(dir_okay=False),
@@ -64,7 +64,7 @@ def hist(ctx, images, dataset, plot, fmt, data_dir, download, verify, **_):
             left = read_image(images[0])
         with opt.library_errors("RIGHT"):
             right = read_image(images[1])
-        top, title = params.DEFAULTS["dmax"], Path(images[0]).name
+        top, title = params.FIXED_DMAX, Path(images[0]).name
     options.setdefault("dmax", top)
     with opt.library_errors():
         rows, rule_tau, min_cost, used = min_cost_histogram(left, right, **options)

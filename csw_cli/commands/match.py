@@ -25,8 +25,12 @@ def summary_line(result):
             else "plain")
     stripes = f", {result.stripes} stripe(s)" if result.stripes else ""
     notes = ""
-    if s.get("range_source") not in (None, "given", "default"):
-        notes += f"; range d {s['dmin']}..{s['dmax']} from {s['range_source']}"
+    source = s.get("range_source")
+    if source and source.startswith("auto"):
+        notes += (f"; range found from the {'first ' if 'first' in source else ''}pair "
+                  "(--dmin/--dmax fix it)")
+    elif source not in (None, "given", "default"):
+        notes += f"; range from {source}"
     if s.get("calibration"):
         notes += f"; calibration {s['calibration']}"
     cost = s["cost"].upper()
@@ -60,7 +64,28 @@ def memory_size(ctx, param, value):
     return size
 
 
-@click.command()
+# --help in the order a user reads it: what to match and where to write it, the range,
+# the preset and its stages, CSW, 3-D outputs, many pairs and clusters, the engine.
+MATCH_HELP = opt.sectioned(
+    ("Output", ["output", "preview", "confidence", "cost_map"]),
+    ("Disparity range", ["dmin", "dmax"]),
+    ("Preset and matching cost", ["preset", "cost", "window", "census_window",
+                                  "census_pattern"]),
+    ("Pipeline stages (on top of the preset)",
+     ["prefilter", "prefilter_cap", "texture_threshold", "lr_check", "uniqueness_ratio",
+      "subpixel", "speckle_size", "speckle_range", "median", "fill"]),
+    ("CSW: skip right pixels already claimed", ["csw", "csw_rule", "tau", "csw_margin"]),
+    ("Depth and point clouds", ["depth", "depth_preview", "cloud", "max_depth", "calib",
+                                "focal", "baseline", "cx", "cy", "doffs", "units",
+                                "calib_units"]),
+    ("Many pairs, big pairs and clusters", ["output_dir", "manifest", "suffix",
+                                            "overwrite", "summary", "memory_limit",
+                                            "workers", "scheduler"]),
+    ("Engine", ["engine", "threads"]),
+)
+
+
+@click.command(cls=MATCH_HELP)
 @click.argument("left", type=click.Path(), required=False)
 @click.argument("right", type=click.Path(), required=False)
 @click.option("--output", "-o", type=click.Path(),
@@ -96,16 +121,17 @@ def memory_size(ctx, param, value):
 @opt.option("window", short="-w")
 @opt.option("dmin")
 @opt.option("dmax", help=opt.params.OPTIONS["dmax"].help + " [default: the ndisp of a "
-                         "calib.txt beside LEFT (or --calib's), else "
-                         f"{opt.params.DEFAULTS['dmax']}]")
+                         "calib.txt beside LEFT (or --calib's), else auto; the paper "
+                         f"preset: {opt.params.FIXED_DMAX}]")
 @opt.option("csw")
 @opt.option("csw_rule")
 @opt.option("tau")
 @opt.option("csw_margin")
 @opt.option("threads", short="-j")
 @click.option("--preview", type=click.Path(dir_okay=False),
-              help="Also write an 8-bit colour PNG of the map (invalid black). Many pairs: "
-                   ".png, for NAME.preview.png beside each map.")
+              help="Also write a colour PNG of the map (Turbo, invalid black) over a colour "
+                   "bar of its values. Many pairs: .png, for NAME.preview.png beside each "
+                   "map.")
 @click.option("--cost-map", type=click.Path(dir_okay=False),
               help="Also write the minimum-cost map m as PFM (inf where invalid).")
 @click.option("--confidence", type=click.Path(dir_okay=False),
@@ -145,7 +171,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
 
     \b
     Examples:
-      csw match left.png right.png -o disp.pfm --dmax 64
+      csw match left.png right.png -o disp.pfm --preview view.png
       csw match left.png right.png -o disp.pfm --subpixel linear --fill background
       csw match left.png right.png -o disp.png --preset raw --csw --tau auto
       csw match lefts/ rights/ --output-dir maps/ --dmax 128
@@ -182,7 +208,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     # The library resolves the options first, once, before it reads any file: a
     # calibration file too, which it is given by name.
     by_hand = any(ctx.params[k] is not None for k in ("focal", "baseline", "cx", "cy",
-                                                       "doffs"))
+                                                       "doffs", "calib_units"))
     calibration = ctx.params["calib"] if ctx.params["calib"] and not by_hand else \
         opt.calibration(ctx.params)
     from csw import match_files
@@ -200,6 +226,8 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
                three_d["depth_preview"]]
     click.echo("wrote " + ", ".join(str(path) for path in written if path), err=True)
     click.echo(summary_line(result), err=True)
+    for note in getattr(result, "notes", []):
+        click.echo(f"csw: {note}", err=True)
 
 
 def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, config,
@@ -229,5 +257,10 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, c
                f"{summary_path}", err=True)
     for entry in report["failed"]:
         click.echo(f"failed: {entry['name']}: {entry['error']}", err=True)
+    for name, note in report["noted"]:
+        click.echo(f"csw: {name}: {note}", err=True)
+    if report["notes"] > len(report["noted"]):
+        click.echo(f"csw: {report['notes'] - len(report['noted'])} more note(s) in "
+                   f"{summary_path}", err=True)
     if counts["failed"]:
         raise SystemExit(1)

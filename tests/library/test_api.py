@@ -16,10 +16,12 @@ def test_defaults_are_the_table_and_its_preset(small_scene):
     left, right, _, _ = small_scene
     result = csw.match(left, right)
     chosen = {**MATCH, **PRESETS[MATCH["preset"]]}
-    for key in ("preset", "engine", "cost", "window", "dmin", "dmax", "csw", "csw_rule",
+    for key in ("preset", "engine", "cost", "window", "dmin", "csw", "csw_rule",
                 *params.OFF):
         assert result.settings[key] == chosen[key], key
-    config = params.resolve()
+    # No range given: it is found from the pair (tests/library/test_autorange.py).
+    assert chosen["dmax"] == "auto" and result.settings["range_source"] == "auto"
+    config = params.resolve(dmax=result.settings["dmax"])
     disp, _, raw = pipeline.run(left, right, dict(config.kernel_args(), csw=False, tau=-1),
                                 config.stages)
     np.testing.assert_array_equal(result.disparity, disp)
@@ -29,9 +31,9 @@ def test_defaults_are_the_table_and_its_preset(small_scene):
 
 def test_raw_preset_is_the_kernels_map(small_scene):
     left, right, _, _ = small_scene
-    result = csw.match(left, right, preset="raw")
+    result = csw.match(left, right, preset="raw", dmax=40)
     raw = kernels.match(left, right, engine="window", window=MATCH["window"],
-                        dmin=MATCH["dmin"], dmax=MATCH["dmax"], cost=MATCH["cost"])
+                        dmin=MATCH["dmin"], dmax=40, cost=MATCH["cost"])
     np.testing.assert_array_equal(np.nan_to_num(result.disparity, nan=-1), raw.disparity)
     np.testing.assert_array_equal(result.min_cost, raw.min_cost)
 

@@ -1,5 +1,5 @@
-"""dmax="auto": a range found from the pair covers its disparities and matches as well as
-the dataset's own range."""
+"""The range found from the pair (csw's default, dmax="auto", and dmin="auto" when asked)
+covers its disparities, not much more, and matches as well as the dataset's own range."""
 
 import numpy as np
 import pytest
@@ -32,13 +32,58 @@ def test_a_featureless_pair_is_a_clear_error():
 
 
 @pytest.mark.data
-@pytest.mark.parametrize("name", csw.dataset_names()[1:])
-def test_every_dataset_covered_and_as_accurate(data_dir, name):
+@pytest.mark.parametrize("name", csw.dataset_names())
+def test_every_dataset_covered_and_as_accurate_with_no_range_given(data_dir, name):
     pair = csw.load_dataset(name, data_dir)
-    auto = csw.match(pair.left, pair.right, dmax="auto")
+    auto = csw.match(pair.left, pair.right)
     own = csw.match(pair.left, pair.right, dmax=pair.dmax)
     assert auto.settings["dmax"] >= np.nanpercentile(pair.gt, 99)
     region = {"all": pair.masks["all"]}
     a, o = (score(r.disparity, pair.gt, region, (2.0,))["all"] for r in (auto, own))
     assert abs(a["density"] - o["density"]) <= 0.5
     assert abs(a["bad_valid"][2.0] - o["bad_valid"][2.0]) <= 0.5
+
+
+def test_no_range_given_means_found_from_the_pair_but_the_paper_keeps_its_own():
+    left, right, gt, _ = csw.synthetic_pair(320, 200, dmax=40, seed=2)
+    found = csw.match(left, right)
+    assert found.settings["range_source"] == "auto"
+    assert np.nanmax(gt) <= found.settings["dmax"] < 64
+    assert found.notes == []
+    paper = csw.match(left, right, preset="paper")
+    assert (paper.settings["dmin"], paper.settings["dmax"]) == (0, 64)
+    assert paper.settings["range_source"] == "default"
+
+
+def test_a_range_cut_short_says_so():
+    left, right, gt, _ = csw.synthetic_pair(320, 200, dmax=40, seed=2)
+    short = csw.match(left, right, dmax=30)  # the nearest object is at d 36
+    assert len(short.notes) == 1 and "dmax 30" in short.notes[0]
+    assert csw.match(left, right, dmax=48).notes == []
+
+
+def _dmin_bound_holds(chosen, disparities, dmin, dmax):
+    """--dmin auto's promise: the range holds the scene (dmin at most the ground truth's
+    1st percentile, to a disparity) and not much more (at most 8 disparities, or 5% of the
+    range, below it)."""
+    first = np.percentile(disparities[np.isfinite(disparities)], 1)
+    slack = max(8, 0.05 * (dmax - dmin))
+    return first - slack <= chosen <= first + 1
+
+
+@pytest.mark.parametrize("width, height, top, seed", [(200, 150, 20, 4), (320, 240, 40, 1),
+                                                      (450, 375, 64, 0), (640, 480, 64, 2),
+                                                      (1024, 768, 120, 3)])
+def test_dmin_auto_fits_synthetic_scenes(width, height, top, seed):
+    left, right, gt, _ = csw.synthetic_pair(width, height, dmax=top, seed=seed)
+    s = csw.match(left, right, dmin="auto", dmax="auto").settings
+    assert _dmin_bound_holds(s["dmin"], gt, s["dmin"], s["dmax"]), s
+
+
+@pytest.mark.data
+@pytest.mark.parametrize("name", csw.dataset_names())
+def test_dmin_auto_fits_every_dataset(data_dir, name):
+    pair = csw.load_dataset(name, data_dir)
+    s = csw.match(pair.left, pair.right, dmin="auto", dmax="auto").settings
+    gt = np.where(pair.gt > 0, pair.gt, np.nan)  # 0 is "unknown" in the older sets
+    assert _dmin_bound_holds(s["dmin"], gt, s["dmin"], s["dmax"]), s

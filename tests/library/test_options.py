@@ -126,8 +126,8 @@ def test_the_kernels_get_the_table_s_census_not_one_of_their_own():
 
 
 @pytest.mark.parametrize("given, source", [
-    ({}, "default"), ({"dmax": 20}, "given"), ({"dmin": 2}, "given"),
-    ({"dmax": "auto"}, "auto")])
+    ({}, "auto"), ({"preset": "paper"}, "default"), ({"dmax": 20}, "given"),
+    ({"dmin": 2}, "auto"), ({"dmin": 2, "dmax": 30}, "given"), ({"dmax": "auto"}, "auto")])
 def test_the_range_says_where_it_came_from(small_scene, given, source):
     result = csw.match(*small_scene[:2], **given)
     assert result.settings["range_source"] == source
