@@ -12,4 +12,9 @@ csw match out/synthetic/left.png out/synthetic/right.png -o out/synthetic-disp.p
     --depth-preview out/synthetic-depth.png --cloud out/synthetic-cloud.ply
 csw match out/synthetic/left.png out/synthetic/right.png -o out/synthetic-disp-csw.pfm \
     --dmax 64 --csw --csw-rule unique --preview out/synthetic-preview-csw.png
-csw score out/synthetic-disp-csw.pfm --gt out/synthetic/gt.pfm --mask nonocc=out/synthetic/nonocc.png
+for map in out/synthetic-disp.pfm out/synthetic-disp-csw.pfm; do
+    csw score "$map" --gt out/synthetic/gt.pfm --mask nonocc=out/synthetic/nonocc.png
+done
+set +x
+echo "Results are in out/: the disparity maps (synthetic-disp*.pfm), depth (synthetic-depth.pfm) and the point cloud (synthetic-cloud.ply)." >&2
+echo "Open out/synthetic-preview.png to see the disparity map, out/synthetic-depth.png for depth." >&2
