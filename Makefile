@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test coverage bench bench-batch bench-peers bench-scale bench-startup tradeoff quality first-photo lint \
+.PHONY: run test coverage bench bench-batch bench-peers bench-scale bench-startup tradeoff quality first-photo bench-rectify lint \
 	format clean
 
 $(PY):
@@ -55,6 +55,10 @@ tradeoff: $(VENV)/.installed-dev
 
 quality: $(VENV)/.installed-dev
 	scripts/quality.sh
+
+# Rectification against OpenCV, timed: reports/rectify.md
+bench-rectify: $(VENV)/.installed-dev
+	$(PY) scripts/rectify_report.py
 
 # Three photograph-like pairs no test uses, matched with no range given: reports/first-photo.md
 first-photo: $(VENV)/.installed-dev

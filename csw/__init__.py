@@ -36,6 +36,8 @@ _PUBLIC = {
     "Matcher": ("matching.matcher", "Matcher"),
     "OptionError": ("config.params", "OptionError"),
     "Pair": ("data.datasets", "Pair"),
+    "Rectifier": ("camera.rectify", "Rectifier"),
+    "Rig": ("camera.rig", "Rig"),
     "Result": ("matching.matcher", "Result"),
     "TiledResult": ("scale.tiled.run", "TiledResult"),
     "bench_rows": ("eval.bench", "bench_rows"),
@@ -53,6 +55,8 @@ _PUBLIC = {
     "read_calibration": ("camera.calibration", "read_calibration"),
     "read_disparity": ("io.formats", "read_disparity"),
     "read_image": ("io.images", "read_image"),
+    "read_rig": ("camera.rig", "read_rig"),
+    "rectify_files": ("camera.rectify", "rectify_files"),
     "run_bench": ("eval.bench", "run_bench"),
     "scan_folder": ("data.layouts", "scan"),
     "score": ("eval.scoring", "score"),
@@ -67,6 +71,8 @@ _SUBMODULES = {"camera", "config", "data", "eval", "io", "kernels", "matching", 
 if TYPE_CHECKING:  # what the table above imports on first use, for readers and tools
     from .camera.calibration import Calibration, read_calibration
     from .camera.geometry import depth, point_cloud, write_ply
+    from .camera.rectify import Rectifier, rectify_files
+    from .camera.rig import Rig, read_rig
     from .config.params import OptionError
     from .data.datasets import DataError, Pair
     from .data.datasets import load as load_dataset

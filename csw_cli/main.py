@@ -16,6 +16,8 @@ COMMANDS = {
     "match": ("match", "match", "Compute disparity maps for rectified pairs."),
     "depth": ("depth", "depth", "Turn a disparity map into depth, with a calibration."),
     "cloud": ("depth", "cloud", "Turn a disparity map into a point cloud (PLY)."),
+    "rectify": ("rectify", "rectify", "Undistort and rectify a raw pair from a calibrated "
+                                      "rig."),
     "synth": ("synth", "synth", "Write a synthetic stereo pair with exact ground truth."),
     "score": ("score", "score", "Score a disparity map against ground truth."),
     # ... then benchmarks, experiments and set-up.
@@ -26,7 +28,8 @@ COMMANDS = {
     "compile": ("compile", "compile_", "Compile every documented option's kernels ahead (CI, "
                                        "Docker)."),
 }
-FIRST = ["match", "depth", "cloud", "synth", "score"]  # listed as "Commands", the rest after
+# Listed as "Commands"; the rest after them.
+FIRST = ["match", "depth", "cloud", "rectify", "synth", "score"]
 
 
 class LazyGroup(click.Group):

@@ -234,3 +234,27 @@ def fill_background(disp):
             sides = ([left[-1]] if left else []) + ([right[0]] if right else [])
             out[y, x] = min(sides) if sides else 0.0
     return out
+
+
+def remap_bilinear(image, map_x, map_y):
+    """The remap kernel's result, plainly: (out, valid) where out[y, x] is the image
+    bilinearly at (map_x, map_y), the point rounded to 1/32 pixel and the weights
+    integers (OpenCV's fixed point), rounded half up; valid where the point lies inside
+    the image (0 <= x <= w - 1, 0 <= y <= h - 1), 0 outside."""
+    height, width = image.shape
+    out = np.zeros(map_x.shape, image.dtype)
+    valid = np.zeros(map_x.shape, bool)
+    for y in range(map_x.shape[0]):
+        for x in range(map_x.shape[1]):
+            sx, sy = map_x[y, x], map_y[y, x]  # float32 arithmetic, as the kernel's
+            if not (0.0 <= sx <= width - 1 and 0.0 <= sy <= height - 1):
+                continue
+            ix = int(sx * np.float32(32) + np.float32(0.5))
+            iy = int(sy * np.float32(32) + np.float32(0.5))
+            x0, y0, wx, wy = ix // 32, iy // 32, ix % 32, iy % 32
+            x1, y1 = min(x0 + 1, width - 1), min(y0 + 1, height - 1)
+            upper = int(image[y0, x0]) * (32 - wx) + int(image[y0, x1]) * wx
+            lower = int(image[y1, x0]) * (32 - wx) + int(image[y1, x1]) * wx
+            out[y, x] = (upper * (32 - wy) + lower * wy + 512) // 1024
+            valid[y, x] = True
+    return out, valid

@@ -54,12 +54,13 @@ def depth(disparity, calib, units=None):
     return out
 
 
-def point_cloud(disparity, calib, image=None, max_depth=None, units=None):
+def point_cloud(disparity, calib, image=None, max_depth=None, units=None, rotation=None):
     """The 3-D points of the valid pixels, row by row: (points float32 (N, 3), colours
     uint8 (N, 3) or None).  image: the left image (H, W) gray or (H, W, 3|4) colour,
     8 or 16 bits, for the colours.  max_depth: drop points farther than this (in the
-    output's units).  Pixels with no valid disparity, or behind the cameras, are left
-    out."""
+    output's units).  rotation: (3, 3) applied to every point (a rectified camera's
+    points back in its raw frame: R1^T).  Pixels with no valid disparity, or behind the
+    cameras, are left out."""
     check_max_depth(max_depth)
     scale = calib.scale_to(units)
     (x, y, z, w), valid = _homogeneous(disparity, calib)
@@ -67,6 +68,8 @@ def point_cloud(disparity, calib, image=None, max_depth=None, units=None):
         with np.errstate(divide="ignore", invalid="ignore"):
             valid &= z / w * scale <= max_depth
     points = np.stack([x[valid], y[valid], z[valid]], axis=1) / w[valid][:, None] * scale
+    if rotation is not None:
+        points = points @ np.asarray(rotation, np.float64).T
     return points.astype(np.float32), _colours(image, valid)
 
 
@@ -131,7 +134,7 @@ CLOUD_SUFFIXES = suffixes("cloud")
 
 
 def writers(disparity, calib, depth_path=None, cloud_path=None, preview_path=None,
-            image=None, max_depth=None, units=None):
+            image=None, max_depth=None, units=None, rotation=None):
     """(path, write_to) for each 3-D output asked for, to be written together with the
     map (csw.io.atomic.atomic_write_all): the depth map (DEPTH_SUFFIXES), its preview
     (PNG) and the point cloud (PLY, coloured from ``image`` where given)."""
@@ -140,7 +143,7 @@ def writers(disparity, calib, depth_path=None, cloud_path=None, preview_path=Non
         items += _depth_writers(depth(disparity, calib, units), depth_path, preview_path,
                                 units or calib.units)
     if cloud_path is not None:
-        points, colours = point_cloud(disparity, calib, image, max_depth, units)
+        points, colours = point_cloud(disparity, calib, image, max_depth, units, rotation)
         items.append((Path(cloud_path), ply_writer(points, colours)))
     return items
 

@@ -33,20 +33,22 @@ from .matcher import Matcher
 # What each companion output may be, by role (csw.io.formats.suffixes).
 COMPANIONS = {"preview": suffixes("picture"), "cost_map": suffixes("costs"),
               "plot": suffixes("picture"), "depth": suffixes("depth"),
-              "cloud": suffixes("cloud"), "depth_preview": suffixes("picture")}
+              "cloud": suffixes("cloud"), "depth_preview": suffixes("picture"),
+              "rectified_left": suffixes("picture")}
 
 
 # An upper bound of each output's size, per pixel: float maps, a 16-bit PNG map, RGB
 # pictures, a PLY's point (3 floats and 3 bytes).  A striped match keeps temporary
 # stores of about 8 more beside its map.
 BYTES_PER_PIXEL = {"output": 4, "confidence": 4, "preview": 3, "cost_map": 4, "depth": 4,
-                   "cloud": 15, "depth_preview": 3}
+                   "cloud": 15, "depth_preview": 3, "rectified_left": 3}
 
 
 def match_files(left, right, output, *, confidence=None, preview=None, cost_map=None,
                 calib=None, depth=None, cloud=None, depth_preview=None, max_depth=None,
                 units=None, memory_limit=None, client=None, progress=False,
-                keep_scratch=False, config=None, **options):
+                keep_scratch=False, config=None, rig=None, alpha=0.0, rectified_left=None,
+                frame="rectified", **options):
     """Match the pair in files ``left`` and ``right`` and write the map to ``output``.
 
     Parameters
@@ -69,6 +71,13 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     max_depth, units : optional
         Leave points farther than max_depth out of the cloud; give depth and points in
         these units ("m", "mm" ...) rather than the calibration's.
+    rig : csw.Rig or csw.Rectifier, optional
+        The pair is raw, from this calibrated rig: it is rectified first (``alpha`` as
+        for csw.Rectifier), matched on the rectified left image's grid, with pixels that
+        have no source invalid; the rectified calibration gives depth and clouds.
+        ``rectified_left``: also write the rectified left image (PNG).  ``frame``:
+        "rectified" (points in the rectified left camera's frame) or "camera" (back in
+        the raw left camera's, R1^T).
     memory_limit : int or str, optional
         Match in row stripes that fit this much working memory (see csw.match_tiled).
     client : dask.distributed.Client, optional
@@ -98,7 +107,8 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
         raise TypeError("give match_files its options or a resolved config, not both")
     # First, and once: a bad option fails before any file is read.
     config = resolve(**options) if config is None else config
-    calibration = calib_module.resolve(calib, left)
+    rectifier = _rectifier(rig, alpha, calib, config, frame)
+    calibration = rectifier.calibration if rectifier else calib_module.resolve(calib, left)
     try:
         shape = open_source(left, "left", probe=False, striped=memory_limit is not None).shape
     except ImageError as exc:
@@ -106,15 +116,24 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
         raise
     if calibration is not None:
         calibration.check_size(shape)
+    if rectifier is not None and rectifier.rig.size != (shape[1], shape[0]):
+        raise OptionError("rig", f"{rectifier.rig.source} is for {rectifier.rig.size[0]}x"
+                                 f"{rectifier.rig.size[1]} images but the left image is "
+                                 f"{shape[1]}x{shape[0]}")
     config = disparity_range.decide(config, shape[1], calibration)
     outputs = {"output": output, "confidence": confidence, "preview": preview,
                "cost_map": cost_map, "depth": depth, "cloud": cloud,
-               "depth_preview": depth_preview}
+               "depth_preview": depth_preview, "rectified_left": rectified_left}
+    if rectified_left is not None and rectifier is None:
+        raise OptionError("rectified_left", "the rectified left image needs a rig (--rig)")
     check_pair_outputs({"left": left, "right": right,
                    "calib": calib if isinstance(calib, (str, Path)) else None}, outputs)
     three_d = [name for name in ("depth", "cloud", "depth_preview") if outputs[name]]
     check_max_depth(max_depth)
     striped = _use_stripes(left, right, output, confidence, memory_limit, client, config)
+    if striped and rectifier is not None:
+        raise OptionError("rig", "a raw pair from a rig is matched whole: drop "
+                                 "--memory-limit, --workers and .tif/.zarr outputs")
     safety.check_space((path, shape[0] * shape[1] * BYTES_PER_PIXEL[name]
                         + (8 * shape[0] * shape[1] if striped and name == "output" else 0))
                        for name, path in outputs.items() if path is not None)
@@ -137,7 +156,11 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
                              config=config)
         return _noted(result, calibration)
     images = [_read(path, name) for name, path in (("left", left), ("right", right))]
+    if rectifier is not None:
+        images = rectifier.rectify(*images)
     result = Matcher(pixels=None, config=config).match(*images, confidence is not None)
+    if rectifier is not None:
+        rectifier.invalidate(result.disparity)
     # One pair: its outputs are written next, and scratch kept for a next match would
     # only raise this process's peak memory (a batch keeps it: csw.scale.batch).
     if not keep_scratch:
@@ -153,12 +176,32 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
         writers.append((cost_map, pfm_writer(m)))
     if confidence is not None:
         writers.append((confidence, pfm_writer(result.confidence)))
+    colours = read_colour(left) if cloud is not None or rectified_left is not None \
+        else None
+    if rectifier is not None and colours is not None:
+        colours = rectifier.rectify_one(colours, 0)
+        if rectified_left is not None:
+            writers.append((rectified_left, png_writer(colours)))
     if three_d:
-        colours = read_colour(left) if cloud is not None else None
+        rotation = rectifier.r1.T if rectifier is not None and frame == "camera" else None
         writers += three_d_writers(disp, calibration, depth, cloud, depth_preview, colours,
-                                   max_depth, units)
+                                   max_depth, units, rotation)
     atomic_write_all(writers)
     return _noted(result, calibration)
+
+
+def _rectifier(rig, alpha, calib, config, frame):
+    """The Rectifier a raw pair from ``rig`` is rectified with, or None."""
+    if frame not in ("rectified", "camera"):
+        raise OptionError("frame", f"frame must be 'rectified' or 'camera', got {frame!r}")
+    if rig is None:
+        return None
+    if calib is not None:
+        raise OptionError("calib", "a rig gives the rectified pair's calibration: drop "
+                                   "--calib (or --rig)")
+    from ..camera.rectify import Rectifier
+
+    return rig if isinstance(rig, Rectifier) else Rectifier(rig, alpha, config.threads)
 
 
 def _noted(result, calibration):

@@ -133,8 +133,9 @@ LARGEST_WINDOW = 31  # a wider window (rare) compiles its own on first use
 
 def documented_entries():
     """Every kernel entry a run can load, whatever the options' values (windows up to
-    LARGEST_WINDOW), for 8- and 16-bit images, with and without the confidence map: what
-    ``csw compile`` puts in the cache, so that no run after it compiles."""
+    LARGEST_WINDOW), for 8- and 16-bit images, with and without the confidence map, and
+    the remap of raw pairs from a rig: what ``csw compile`` puts in the cache, so that no
+    run after it compiles."""
     import itertools
 
     wanted = []
@@ -153,6 +154,10 @@ def documented_entries():
     for stage in FILTER_CHOICES:
         wanted += config_entries(params.resolve(preset="raw", dmax=8, **stage),
                                  np.dtype(np.uint8))
+    from ..kernels import remap  # a raw pair from a rig (csw.camera.rectify)
+
+    for dtype in (None, np.uint8, np.uint16):
+        wanted += remap.entries(dtype)
     return list(dict.fromkeys((k, tuple(v)) for k, v in wanted))
 
 

@@ -192,14 +192,15 @@ def check_batch_outputs(jobs, outputs, out_dir, summary, calib=None):
                                      "first")
 
 
-def run_job(task, config, calib=None, three_d=None):
+def run_job(task, config, calib=None, three_d=None, rig=None):
     """Match one pair, a (Job, outputs) task (outputs: role -> path, "map" first), and
     write its map and the 3-D outputs asked for, all or none, through the one path from
     a pair to files (csw.match_files: a pair too big for memory is matched in stripes);
     returns a summary entry (never raises for a bad pair: the error is in the entry).
     calib: the batch's Calibration, else the pair's calib.txt (beside its left image) is
     used; its ndisp sets the range when the options give no dmax.  config: the batch's
-    csw.config.params.Config, resolved once.  three_d: max_depth and units."""
+    csw.config.params.Config, resolved once.  three_d: max_depth and units.  rig: the
+    batch's csw.Rectifier when the pairs are raw (its maps built once, for every pair)."""
     job, outputs = task
     entry = {"name": job.name, "left": str(job.left),
              "right": str(job.right) if job.right else None,
@@ -208,8 +209,8 @@ def run_job(task, config, calib=None, three_d=None):
     try:
         if job.problem:
             raise ValueError(job.problem)
-        calibration = calib_module.resolve(calib, job.left)
-        result = match_files(job.left, job.right, outputs["map"], calib=calibration,
+        calibration = None if rig is not None else calib_module.resolve(calib, job.left)
+        result = match_files(job.left, job.right, outputs["map"], calib=calibration, rig=rig,
                              preview=outputs.get("preview"),
                              confidence=outputs.get("confidence"),
                              depth=outputs.get("depth"), cloud=outputs.get("cloud"),
@@ -242,7 +243,7 @@ def failure_message(exc):
 def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
                summary=None, client=None, calib=None, depth=None, cloud=None,
                depth_preview=None, max_depth=None, units=None, preview=None,
-               confidence=None, config=None, **match_options):
+               confidence=None, config=None, rig=None, alpha=0.0, **match_options):
     """Match every job into ``out_dir/<name><suffix>``.
 
     Parameters
@@ -277,6 +278,10 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         cloud (".ply": NAME.ply) and depth picture (".png": NAME.depth.png).
     max_depth, units : optional
         As for :func:`csw.match_files`.
+    rig, alpha : optional
+        The pairs are raw, from this rig (a csw.Rig or csw.Rectifier): each is rectified
+        with maps built once for all, and the rig gives the calibration (see
+        :func:`csw.match_files`).
     **match_options
         As for :func:`csw.match`; or ``config``, a csw.config.params.Config resolved
         already.  Every pair runs with the one config resolved here.
@@ -319,6 +324,15 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     calib_path = calib if isinstance(calib, (str, Path)) else None
     if calib_path is not None:
         calib = calib_module.read_calibration(calib)  # once, and a bad one fails first
+    rectifier = None
+    if rig is not None:  # raw pairs: the maps built once, for every pair
+        from ..camera.rectify import Rectifier
+
+        if calib is not None:
+            raise OptionError("calib", "a rig gives the rectified pairs' calibration: "
+                                       "drop --calib (or --rig)")
+        rectifier = rig if isinstance(rig, Rectifier) else Rectifier(rig, alpha,
+                                                                      config.threads)
     outputs = [{"map": out_dir / f"{job.name}{suffix}",
                 **{role: out_dir / pattern.format(name=job.name)
                    for role, pattern in extras.items()}} for job in jobs]
@@ -342,7 +356,7 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         tasks = ((jobs[i], outputs[i]) for i in todo)
         three_d = dict(max_depth=max_depth, units=units)
         for k, entry in run_tasks(run_job, tasks, client, config=config, calib=calib,
-                                  three_d=three_d):
+                                  three_d=three_d, rig=rectifier):
             log.add(todo[k], entry)
             bar.update()
             if callable(progress):

@@ -78,6 +78,7 @@ MATCH_HELP = opt.sectioned(
     ("Depth and point clouds", ["depth", "depth_preview", "cloud", "max_depth", "calib",
                                 "focal", "baseline", "cx", "cy", "doffs", "units",
                                 "calib_units"]),
+    ("Raw pairs from a calibrated rig", ["rigs", "alpha", "rectified_left", "frame"]),
     ("Many pairs, big pairs and clusters", ["output_dir", "manifest", "suffix",
                                             "overwrite", "summary", "memory_limit",
                                             "workers", "scheduler"]),
@@ -151,11 +152,26 @@ MATCH_HELP = opt.sectioned(
                    "NAME.depth.png.")
 @click.option("--max-depth", type=click.FloatRange(min=0, min_open=True),
               help="Leave points farther than this out of the cloud.")
+@click.option("--rig", "rigs", multiple=True, type=click.Path(dir_okay=False, exists=True),
+              help="LEFT and RIGHT are raw images of this calibrated rig: rectify them "
+                   "first (OpenCV YAML/XML, ROS camera_info left then right, KITTI "
+                   "calib_cam_to_cam.txt, Kalibr camchain; repeat for two files). The "
+                   "map is on the rectified left image's grid; the rig gives depth and "
+                   "clouds their calibration.")
+@click.option("--alpha", type=click.FloatRange(-1, 1), default=0.0, show_default=True,
+              help="With --rig: 0 keeps only pixels with a source (no black border), 1 "
+                   "every raw pixel.")
+@click.option("--rectified-left", type=click.Path(dir_okay=False),
+              help="With --rig: also write the rectified left image (PNG).")
+@click.option("--frame", type=click.Choice(["rectified", "camera"]), default="rectified",
+              show_default=True,
+              help="With --rig: the point cloud in the rectified left camera's frame, or "
+                   "back in the raw left camera's (what a robot's transform tree expects).")
 @opt.stage_options()
 @click.pass_context
 def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, summary, workers,
           scheduler, memory_limit, preview, cost_map, confidence, depth, cloud,
-          depth_preview, max_depth, units, **_):
+          depth_preview, max_depth, units, rigs, alpha, rectified_left, frame, **_):
     """Match LEFT against RIGHT (left is the reference) and write the disparity map.
 
     The match of left pixel x is right pixel x - d, for d in [DMIN, DMAX].  With --csw,
@@ -178,6 +194,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
       csw match --manifest pairs.csv -O maps/ --suffix .png
       csw match lefts/ rights/ -O maps/ --workers 2
       csw match big_left.tif big_right.tif -o disp.tif --memory-limit 1GiB
+      csw match raw_l.png raw_r.png --rig stereo.yml -o disp.pfm --cloud c.ply
     """
     from csw.config import params
 
@@ -188,6 +205,9 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     many = manifest is not None or output_dir is not None or \
         (left is not None and os.path.isdir(left))
     if many:
+        if rectified_left:
+            raise click.UsageError("--rectified-left is for one pair; csw rectify writes "
+                                   "a folder's rectified images")
         if output or cost_map or memory_limit:
             raise click.UsageError("-o, --cost-map and --memory-limit are for one pair; many "
                                    "pairs write into --output-dir")
@@ -198,9 +218,11 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
         with opt.library_errors():
             config = params.resolve(**settings)  # before the manifest is read, and once
         calibration = opt.calibration(ctx.params)
+        outputs = dict(three_d, preview=preview, confidence=confidence)
+        if rigs:
+            outputs.update(rig=batch_rig(rigs, left, manifest), alpha=alpha)
         return match_batch(left, right, manifest, output_dir, suffix, overwrite, summary,
-                           config, workers, scheduler, calibration,
-                           dict(three_d, preview=preview, confidence=confidence))
+                           config, workers, scheduler, calibration, outputs)
     if left is None or right is None:
         raise click.UsageError("give LEFT and RIGHT images (or folders with --output-dir)")
     if output is None:
@@ -211,6 +233,18 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
                                                        "doffs", "calib_units"))
     calibration = ctx.params["calib"] if ctx.params["calib"] and not by_hand else \
         opt.calibration(ctx.params)
+    rig = None
+    if rigs:
+        from csw.camera.rig import read_rig
+        from csw.io.images import image_header
+
+        with opt.library_errors("LEFT"):
+            height, width = image_header(left)[2]
+        with opt.library_errors("--rig"):
+            rig = read_rig(*rigs, size=(width, height))
+    elif rectified_left or ctx.get_parameter_source("frame").name != "DEFAULT" or \
+            ctx.get_parameter_source("alpha").name != "DEFAULT":
+        raise opt.InputError("--alpha, --frame and --rectified-left need --rig")
     from csw import match_files
     from csw.scale.distributed import cluster
 
@@ -219,15 +253,32 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
             result = match_files(left, right, output, confidence=confidence, preview=preview,
                                  cost_map=cost_map, calib=calibration,
                                  memory_limit=memory_limit, client=client, progress=True,
-                                 **three_d, **settings)
+                                 rig=rig, alpha=alpha, rectified_left=rectified_left,
+                                 frame=frame, **three_d, **settings)
     except OSError as exc:
         raise write_error(exc) from None
     written = [output, preview, cost_map, confidence, three_d["depth"], three_d["cloud"],
-               three_d["depth_preview"]]
+               three_d["depth_preview"], rectified_left]
     click.echo("wrote " + ", ".join(str(path) for path in written if path), err=True)
     click.echo(summary_line(result), err=True)
     for note in getattr(result, "notes", []):
         click.echo(f"csw: {note}", err=True)
+
+
+def batch_rig(rigs, left_dir, manifest):
+    """The rig of a batch of raw pairs, its image size from the first pair's left image
+    when the file doesn't give it."""
+    from csw import jobs_from_folders, jobs_from_manifest
+    from csw.camera.rig import read_rig
+    from csw.io.images import image_header
+
+    with opt.library_errors("--manifest" if manifest else "LEFT"):
+        jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left_dir,
+                                                                               left_dir)
+        first = next(job.left for job in jobs)
+        height, width = image_header(first)[2]
+    with opt.library_errors("--rig"):
+        return read_rig(*rigs, size=(width, height))
 
 
 def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, config,

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 import tifffile
 from layout_fixtures import kitti, middlebury2014
+from rig_fixtures import random_rig, raw_from_rectified, ros_camera_info, write_opencv
 
 from csw.data.synth import calib_text, render
 from csw.io import write_float_pfm, write_png
@@ -94,7 +95,48 @@ def workspace(tmp_path_factory):
         write_float_pfm(root / "maps" / f"{name}.pfm", frame_gt.astype(np.float32))
     (root / "pairs.csv").write_text("".join(f"lefts/{n}.png,rights/{n}.png\n"
                                             for n in frames))
+    raw_rig(root, left, right)
     return root
+
+
+def raw_rig(root, left, right):
+    """raw_left.png, raw_right.png: the scene seen through a distorted, rotated rig, and
+    the rig in each format the docs show: stereo_rig.yml (OpenCV), left.yaml and
+    right.yaml (ROS camera_info), calib_cam_to_cam.txt's raw keys (KITTI), camchain.yaml
+    (Kalibr)."""
+    from csw.camera.rectify import stereo_rectify
+
+    rig = random_rig(np.random.default_rng(1), size=(WIDTH, HEIGHT))
+    r1, r2, p1, p2, _ = stereo_rectify(rig.k1, rig.d1, rig.k2, rig.d2, rig.size, rig.r,
+                                       rig.t, 0.0)
+    write_png(root / "raw_left.png", raw_from_rectified(left, rig.k1, rig.d1, r1, p1))
+    write_png(root / "raw_right.png", raw_from_rectified(right, rig.k2, rig.d2, r2, p2))
+    write_opencv(root / "stereo_rig.yml", rig)
+    (root / "left.yaml").write_text(ros_camera_info(rig.k1, rig.d1, r1, p1, rig.size))
+    (root / "right.yaml").write_text(ros_camera_info(rig.k2, rig.d2, r2, p2, rig.size))
+
+    def row(values):
+        return " ".join(f"{v:.17g}" for v in np.ravel(values))
+
+    with open(root / "calib_cam_to_cam.txt", "a") as kitti_file:
+        kitti_file.write(
+            f"S_02: {WIDTH} {HEIGHT}\nK_02: {row(rig.k1)}\nD_02: {row(rig.d1)}\n"
+            f"R_02: {row(np.eye(3))}\nT_02: 0 0 0\nS_03: {WIDTH} {HEIGHT}\n"
+            f"K_03: {row(rig.k2)}\nD_03: {row(rig.d2)}\nR_03: {row(rig.r)}\n"
+            f"T_03: {row(rig.t)}\n")
+    transform = np.eye(4)
+    transform[:3, :3], transform[:3, 3] = rig.r, rig.t
+
+    def camera(k, d):
+        return (f"  intrinsics: [{k[0, 0]:.17g}, {k[1, 1]:.17g}, {k[0, 2]:.17g}, "
+                f"{k[1, 2]:.17g}]\n  distortion_model: radtan\n"
+                f"  distortion_coeffs: [{row(d[:4]).replace(' ', ', ')}]\n"
+                f"  resolution: [{WIDTH}, {HEIGHT}]\n")
+
+    (root / "camchain.yaml").write_text(
+        "cam0:\n" + camera(rig.k1, rig.d1) + "cam1:\n  T_cn_cnm1:\n"
+        + "".join(f"  - [{row(r).replace(' ', ', ')}]\n" for r in transform)
+        + camera(rig.k2, rig.d2))
 
 
 @pytest.mark.parametrize("page, language, text", examples())

@@ -1,0 +1,124 @@
+"""Rectification against OpenCV, timed in one process (1 thread each, interleaved, median
+of repeats after a warm-up): the remap of a 1920-pixel-wide gray pair against cv2.remap
+on the same maps, building the maps against cv2.initUndistortRectifyMap, and matching a
+raw 1080p pair with the rig against matching the already rectified pair.  Writes
+reports/rectify.md (make bench-rectify)."""
+
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+import csw
+from csw.camera.rectify import Rectifier, rectify_maps, stereo_rectify
+from csw.kernels.remap import remap
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+from rig_fixtures import random_rig, raw_from_rectified  # noqa: E402
+
+from report_common import now_utc  # noqa: E402
+
+SIZE = (1920, 1080)
+REPEAT = 7
+
+
+def timed(functions):
+    """{name: [seconds...]}: each function run REPEAT times, interleaved, after one
+    warm-up run each."""
+    for f in functions.values():
+        f()
+    times = {name: [] for name in functions}
+    for _ in range(REPEAT):
+        for name, f in functions.items():
+            start = time.perf_counter()
+            f()
+            times[name].append(time.perf_counter() - start)
+    return times
+
+
+def _scaled(k):
+    """A camera matrix with a focal length six times as long (1800 px at 1920 wide)."""
+    k = k.copy()
+    k[0, 0] *= 6
+    k[1, 1] *= 6
+    return k
+
+
+def met(ok):
+    return "**met**" if ok else "**not met**"
+
+
+def spread(values):
+    return min(values), statistics.median(values), max(values)
+
+
+def main():
+    cv2.setNumThreads(1)
+    rig = random_rig(np.random.default_rng(1), size=SIZE)
+    rig = csw.Rig(_scaled(rig.k1), rig.d1, _scaled(rig.k2), rig.d2, rig.r, rig.t, SIZE,
+                  source="a 1080p rig")
+    r1, r2, p1, p2, _ = stereo_rectify(rig.k1, rig.d1, rig.k2, rig.d2, SIZE, rig.r, rig.t,
+                                       0.0)
+    left, right, _, _ = csw.synthetic_pair(*SIZE, dmax=120, seed=1)
+    raw_left = raw_from_rectified(left, rig.k1, rig.d1, r1, p1)
+    raw_right = raw_from_rectified(right, rig.k2, rig.d2, r2, p2)
+    map_x, map_y = rectify_maps(rig.k1, rig.d1, r1, p1, SIZE)
+    rect = Rectifier(rig, threads=1)
+    rectified = rect.rectify(raw_left, raw_right)
+    options = dict(dmax=128, threads=1)
+    times = timed({
+        "csw remap": lambda: remap(raw_left, map_x, map_y, threads=1),
+        "cv2.remap": lambda: cv2.remap(raw_left, map_x, map_y, cv2.INTER_LINEAR,
+                                       borderMode=cv2.BORDER_CONSTANT),
+        "csw maps": lambda: rectify_maps(rig.k1, rig.d1, r1, p1, SIZE),
+        "cv2 maps": lambda: cv2.initUndistortRectifyMap(rig.k1, rig.d1, r1, p1, SIZE,
+                                                        cv2.CV_32FC1),
+        "match with --rig": lambda: csw.match(*rect.rectify(raw_left, raw_right),
+                                              **options),
+        "match rectified": lambda: csw.match(*rectified, **options),
+    })
+    rows = {name: spread(v) for name, v in times.items()}
+    ratio = {
+        "remap": rows["csw remap"][1] / rows["cv2.remap"][1],
+        "maps": rows["csw maps"][1] / rows["cv2 maps"][1],
+        "match": rows["match with --rig"][1] / rows["match rectified"][1],
+    }
+    lines = [
+        "# Rectification against OpenCV",
+        "",
+        f"Made by `make bench-rectify` (scripts/rectify_report.py), {now_utc()}: a "
+        f"{SIZE[0]}x{SIZE[1]} gray pair through a distorted, rotated rig; 1 thread each "
+        f"(cv2.setNumThreads(1)), interleaved, median of {REPEAT} after a warm-up.",
+        "",
+        "| step | min (ms) | median (ms) | max (ms) |",
+        "|---|---|---|---|",
+        *(f"| {name} | {lo * 1e3:.1f} | {mid * 1e3:.1f} | {hi * 1e3:.1f} |"
+          for name, (lo, mid, hi) in rows.items()),
+        "",
+        f"- The remap: {ratio['remap']:.2f}x cv2.remap's time (target <= 1.5x: "
+        f"{met(ratio['remap'] <= 1.5)}).",
+        f"- Building the maps: {ratio['maps']:.2f}x cv2.initUndistortRectifyMap's "
+        f"(target <= 2x: {met(ratio['maps'] <= 2)}; built once per rig and size).",
+        f"- Matching the raw pair with the rig: {ratio['match']:.2f}x matching the "
+        f"rectified pair (target <= 1.10x: {met(ratio['match'] <= 1.10)}; the default "
+        "preset, d 0..128).",
+        "",
+        "Where it falls short: csw's remap is scalar code, four gathers and an integer "
+        "blend a pixel (5 to 8 ns), where OpenCV's is vectorised; matching a raw pair "
+        "pays two remaps on top of the match. With the default threads the remap runs in "
+        "parallel stripes like the other kernels.",
+        "",
+    ]
+    (ROOT / "reports" / "rectify.md").write_text("\n".join(lines))
+    (ROOT / "reports" / "rectify.json").write_text(json.dumps(
+        {"rows_seconds": rows, "ratios": ratio}, indent=1) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,139 @@
+"""csw rectify and csw match --rig: a raw pair from a calibrated rig, rectified, matched,
+turned into depth and a cloud in one run; bad rigs are one line, exit 2, nothing
+written."""
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from rig_fixtures import random_rig, raw_from_rectified, write_opencv
+
+import csw
+from csw.camera.rectify import Rectifier, stereo_rectify
+from csw.io import write_png
+from csw_cli.main import cli
+
+SIZE = (240, 180)
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+@pytest.fixture
+def raw_pair(tmp_path):
+    rig = random_rig(np.random.default_rng(21), size=SIZE)
+    r1, r2, p1, p2, _ = stereo_rectify(rig.k1, rig.d1, rig.k2, rig.d2, rig.size, rig.r,
+                                       rig.t, 0.0)
+    left, right, _, _ = csw.synthetic_pair(*SIZE, dmax=20, seed=6)
+    write_png(tmp_path / "raw_l.png", raw_from_rectified(left, rig.k1, rig.d1, r1, p1))
+    write_png(tmp_path / "raw_r.png", raw_from_rectified(right, rig.k2, rig.d2, r2, p2))
+    write_opencv(tmp_path / "stereo.yml", rig)
+    return tmp_path, rig
+
+
+def test_rectify_then_match_uses_the_rectified_calibration(raw_pair):
+    folder, rig = raw_pair
+    done = run("rectify", folder / "raw_l.png", folder / "raw_r.png", "--rig",
+               folder / "stereo.yml", "-O", folder / "rect")
+    assert done.exit_code == 0, done.output
+    assert sorted(p.name for p in (folder / "rect").iterdir()) == \
+        ["calib.txt", "left.png", "right.png"]
+    matched = run("match", folder / "rect/left.png", folder / "rect/right.png", "-o",
+                  folder / "d.pfm", "--depth", folder / "z.pfm")
+    assert matched.exit_code == 0, matched.output
+    assert "calibration" in matched.output and "rect/calib.txt" in matched.output
+
+
+def test_match_rig_writes_the_cloud_in_either_frame(raw_pair):
+    from plyfile import PlyData
+
+    folder, rig = raw_pair
+    clouds = {}
+    for frame in ("rectified", "camera"):
+        done = run("match", folder / "raw_l.png", folder / "raw_r.png", "--rig",
+                   folder / "stereo.yml", "-o", folder / f"{frame}.pfm", "--cloud",
+                   folder / f"{frame}.ply", "--frame", frame, "--rectified-left",
+                   folder / f"{frame}-left.png")
+        assert done.exit_code == 0, done.output
+        vertex = PlyData.read(folder / f"{frame}.ply")["vertex"]
+        clouds[frame] = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=1)
+    r1 = Rectifier(rig).r1
+    assert len(clouds["camera"]) > 1000
+    np.testing.assert_allclose(clouds["camera"], clouds["rectified"] @ r1, atol=1e-3)
+    rectified_left = csw.read_image(folder / "rectified-left.png")
+    assert rectified_left.shape == SIZE[::-1]
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda text: text.replace("M1", "Q1"), "no M1"),
+    (None, "is for 240x180 images"),
+])
+def test_a_bad_rig_is_one_line_exit_2_and_nothing_written(raw_pair, change, message):
+    folder, _ = raw_pair
+    rig_file = folder / "stereo.yml"
+    if change is not None:
+        rig_file.write_text(change(rig_file.read_text()))
+        left = folder / "raw_l.png"
+    else:
+        left = folder / "small.png"
+        write_png(left, np.zeros((50, 60), np.uint8))
+    before = sorted(p.name for p in folder.iterdir())
+    done = run("match", left, folder / "raw_r.png", "--rig", rig_file, "-o",
+               folder / "d.pfm")
+    assert done.exit_code == 2 and message in done.output
+    assert len(done.output.strip().splitlines()) == 1
+    assert sorted(p.name for p in folder.iterdir()) == before
+
+
+def test_rig_options_without_a_rig_are_refused(raw_pair):
+    folder, _ = raw_pair
+    done = run("match", folder / "raw_l.png", folder / "raw_r.png", "-o", folder / "d.pfm",
+               "--alpha", "0.5")
+    assert done.exit_code == 2 and "need --rig" in done.output
+
+
+def test_a_folder_of_raw_pairs_rectifies_with_one_rig_and_a_bad_pair_is_reported(raw_pair):
+    import shutil
+
+    folder, _ = raw_pair
+    for side, raw in (("lefts", "raw_l.png"), ("rights", "raw_r.png")):
+        (folder / side).mkdir()
+        for name in ("a", "b"):
+            shutil.copy(folder / raw, folder / side / f"{name}.png")
+    write_png(folder / "lefts" / "c.png", np.zeros((50, 60), np.uint8))  # wrong size
+    write_png(folder / "rights" / "c.png", np.zeros((50, 60), np.uint8))
+    done = run("rectify", folder / "lefts", folder / "rights", "--rig", folder / "stereo.yml",
+               "-O", folder / "rect")
+    assert done.exit_code == 1 and "2 pair(s) rectified" in done.output
+    assert "failed: c:" in done.output
+    assert sorted(p.name for p in (folder / "rect/left").iterdir()) == \
+        ["a.png", "b.png", "calib.txt"]
+    matched = run("match", folder / "rect/left", folder / "rect/right", "-O",
+                  folder / "maps", "--depth", ".pfm")
+    assert matched.exit_code == 0, matched.output
+    assert (folder / "maps" / "a.depth.pfm").is_file()
+
+
+def test_a_batch_of_raw_pairs_matches_with_the_rig_s_maps_built_once(raw_pair, monkeypatch):
+    import shutil
+
+    from csw.camera import rectify
+
+    folder, _ = raw_pair
+    for side, raw in (("lefts", "raw_l.png"), ("rights", "raw_r.png")):
+        (folder / side).mkdir()
+        for name in ("a", "b", "c"):
+            shutil.copy(folder / raw, folder / side / f"{name}.png")
+    built = []
+    original = rectify.rectify_maps
+    monkeypatch.setattr(rectify, "rectify_maps",
+                        lambda *a, **k: built.append(1) or original(*a, **k))
+    done = run("match", folder / "lefts", folder / "rights", "--rig", folder / "stereo.yml",
+               "-O", folder / "maps", "--depth", ".pfm")
+    assert done.exit_code == 0, done.output
+    assert len(built) == 2  # one map pair for the left camera, one for the right
+    single = run("match", folder / "raw_l.png", folder / "raw_r.png", "--rig",
+                 folder / "stereo.yml", "-o", folder / "one.pfm")
+    assert single.exit_code == 0
+    np.testing.assert_array_equal(csw.read_disparity(folder / "maps" / "b.pfm"),
+                                  csw.read_disparity(folder / "one.pfm"))
