@@ -346,9 +346,12 @@ class Rectifier:
         else:
             self.maps = (rectify_maps(rig.k1, rig.d1, r1, p1, rig.size, threads),
                          rectify_maps(rig.k2, rig.d2, r2, p2, rig.size, threads))
+        from ..kernels.remap import fixed_maps
+
         width, height = rig.size
-        self.valid = tuple((mx >= 0) & (mx <= width - 1) & (my >= 0) & (my <= height - 1)
+        self.fixed = tuple(fixed_maps(mx, my, (height, width), threads)
                            for mx, my in self.maps)
+        self.valid = tuple(f.valid.view(np.bool_) for f in self.fixed)
         self._all_valid = tuple(bool(v.all()) for v in self.valid)
         focal = float(p1[0, 0])
         self.calibration = Calibration(
@@ -374,7 +377,7 @@ class Rectifier:
         if image.shape[:2] != (height, width):
             raise ValueError(f"the image is {image.shape[1]}x{image.shape[0]} but "
                              f"{self.rig.source} is for {width}x{height} images")
-        return self.remap(image, *self.maps[which])
+        return self.remap(image, self.fixed[which])
 
     def invalidate(self, disparity):
         """Make NaN, in place, the disparities (float32 (H, W), the rectified left's grid)
@@ -393,12 +396,12 @@ class Rectifier:
         has_source[inside] = valid_right[y[inside], column[inside]]
         disparity[y[~has_source], x[~has_source]] = np.nan
 
-    def remap(self, image, map_x, map_y):
+    def remap(self, image, fixed):
         from ..kernels.remap import remap
 
         if image.ndim == 2:
-            return remap(image, map_x, map_y, self.threads)[0]
-        return np.stack([remap(np.ascontiguousarray(image[..., c]), map_x, map_y,
+            return remap(image, fixed, None, self.threads)[0]
+        return np.stack([remap(np.ascontiguousarray(image[..., c]), fixed, None,
                                self.threads)[0] for c in range(image.shape[2])], axis=2)
 
     def calib_text(self):

@@ -156,7 +156,7 @@ def documented_entries():
                                  np.dtype(np.uint8))
     from ..kernels import remap  # a raw pair from a rig (csw.camera.rectify)
 
-    for dtype in (None, np.uint8, np.uint16):
+    for dtype in (None, "fixed", np.uint8, np.uint16):
         wanted += remap.entries(dtype)
     return list(dict.fromkeys((k, tuple(v)) for k, v in wanted))
 
