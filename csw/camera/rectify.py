@@ -417,6 +417,11 @@ class Rectifier:
                 f"baseline={c.baseline * scale:.10g}\nwidth={c.width}\nheight={c.height}\n")
 
 
+def _rig_files(rig):
+    """The files a rig was read from, as named inputs (csw.io.safety.check_outputs)."""
+    return {f"rig {i + 1}": path for i, path in enumerate(getattr(rig, "paths", ()))}
+
+
 def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
     """Rectify a raw pair of image files with ``rig`` (a Rig) into ``out_dir``:
     left.png, right.png (the images' own type, gray or colour) and calib.txt (the
@@ -434,7 +439,7 @@ def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
     outputs = {"left": out_dir / "left.png", "right": out_dir / "right.png",
                "calib": out_dir / "calib.txt"}
     out_dir.mkdir(parents=True, exist_ok=True)
-    check_outputs({"left_raw": left, "right_raw": right}, outputs,
+    check_outputs({"left_raw": left, "right_raw": right, **_rig_files(rig)}, outputs,
                   {"left": (".png",), "right": (".png",), "calib": (".txt",)})
     rect = Rectifier(rig, alpha, threads)
     images = []
@@ -479,7 +484,7 @@ def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None):
         folder.mkdir(parents=True, exist_ok=True)
     calib = folders["left"] / "calib.txt"
     text = rect.calib_text().encode()
-    check_outputs({}, {"calib": calib}, {"calib": (".txt",)})
+    check_outputs(_rig_files(rig), {"calib": calib}, {"calib": (".txt",)})
     atomic_write_all([(calib, lambda tmp: Path(tmp).write_bytes(text))])
     done, failed = 0, []
     for job in jobs:
@@ -487,7 +492,8 @@ def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None):
             if job.problem:
                 raise ValueError(job.problem)
             outputs = {side: folders[side] / f"{job.name}.png" for side in folders}
-            check_outputs({"left_raw": job.left, "right_raw": job.right}, outputs,
+            check_outputs({"left_raw": job.left, "right_raw": job.right,
+                           **_rig_files(rig)}, outputs,
                           {"left": (".png",), "right": (".png",)})
             pair = rect.rectify(read_colour(job.left), read_colour(job.right))
             atomic_write_all([(outputs[side], png_writer(image))

@@ -34,7 +34,8 @@ class Rig:
     float64 distortion vectors; r (3, 3), t (3,): left to right; size: (width, height);
     model: "plumb_bob" (radtan, 4-5 coefficients), "rational_polynomial" (8) or
     "equidistant" (fisheye, k1..k4); rectification: (R1, R2, P1, P2) as the file gives
-    them, or None; units: of T where the format says them, else None."""
+    them, or None; units: of T where the format says them, else None; paths: the files
+    it was read from."""
 
     k1: np.ndarray
     d1: np.ndarray
@@ -47,6 +48,7 @@ class Rig:
     rectification: tuple | None = None
     units: str | None = None
     source: str = "a rig"
+    paths: tuple = ()  # the files it was read from: inputs no output may replace
 
     def __post_init__(self):
         checks = [("k1", (3, 3)), ("k2", (3, 3)), ("r", (3, 3)), ("t", (3,))]
@@ -108,10 +110,17 @@ def read_rig(*paths, size=None):
             texts.append(Path(path).read_text(errors="replace"))
         except OSError as exc:
             raise ValueError(f"{path}: can't read it ({exc.strerror or exc})") from None
-    names = " and ".join(str(p) for p in paths)
+    from dataclasses import replace
+
+    rig = _read(texts, " and ".join(str(p) for p in paths), len(paths), size)
+    return replace(rig, paths=tuple(Path(p) for p in paths))
+
+
+def _read(texts, names, count, size):
+    """The Rig in the files' ``texts``, its format found from the content."""
     joined = "\n".join(texts)
     if "camera_matrix" in joined and "projection_matrix" in joined:
-        if len(paths) != 2:
+        if count != 2:
             raise ValueError(f"{names}: a ROS camera_info holds one camera; give the left "
                              "and the right one")
         return _ros(texts, names)

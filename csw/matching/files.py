@@ -126,8 +126,11 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
                "depth_preview": depth_preview, "rectified_left": rectified_left}
     if rectified_left is not None and rectifier is None:
         raise OptionError("rectified_left", "the rectified left image needs a rig (--rig)")
+    rig_files = {f"rig {i + 1}": path for i, path in
+                 enumerate(rectifier.rig.paths if rectifier is not None else ())}
     check_pair_outputs({"left": left, "right": right,
-                   "calib": calib if isinstance(calib, (str, Path)) else None}, outputs)
+                        "calib": calib if isinstance(calib, (str, Path)) else None,
+                        **rig_files}, outputs)
     three_d = [name for name in ("depth", "cloud", "depth_preview") if outputs[name]]
     check_max_depth(max_depth)
     striped = _use_stripes(left, right, output, confidence, memory_limit, client, config)

@@ -137,3 +137,23 @@ def test_a_batch_of_raw_pairs_matches_with_the_rig_s_maps_built_once(raw_pair, m
     assert single.exit_code == 0
     np.testing.assert_array_equal(csw.read_disparity(folder / "maps" / "b.pfm"),
                                   csw.read_disparity(folder / "one.pfm"))
+
+
+def test_no_output_may_replace_the_rig_file(raw_pair):
+    folder, _ = raw_pair
+    rect = folder / "rect"
+    rect.mkdir()
+    rig_as_calib = rect / "calib.txt"  # a rig that happens to sit where calib.txt goes
+    rig_as_calib.write_text((folder / "stereo.yml").read_text())
+    before = rig_as_calib.read_bytes()
+    done = run("rectify", folder / "raw_l.png", folder / "raw_r.png", "--rig", rig_as_calib,
+               "-O", rect)
+    assert done.exit_code == 2 and "calib.txt" in done.output
+    assert rig_as_calib.read_bytes() == before
+    assert sorted(p.name for p in rect.iterdir()) == ["calib.txt"]
+    oddly_named = folder / "rig.png"  # a rig file with a picture's suffix
+    oddly_named.write_text((folder / "stereo.yml").read_text())
+    done = run("match", folder / "raw_l.png", folder / "raw_r.png", "--rig", oddly_named,
+               "-o", folder / "d.pfm", "--rectified-left", oddly_named)
+    assert done.exit_code == 2 and "rig.png" in done.output
+    assert oddly_named.read_text().startswith("%YAML") and not (folder / "d.pfm").exists()
