@@ -77,11 +77,15 @@ def shrink(image, f):
     return np.round(blocks.mean(axis=(1, 3))).astype(image.dtype)
 
 
-def estimate(small_left, small_right, f, width, dmin=None, dmax=None, threads=None):
-    """(dmin, dmax) for the full pair (``width`` wide) from its f-times shrunk images;
-    a bound given (not None) is kept as given.  ValueError when the small pair yields no
-    confident disparity to go by."""
-    small_width = small_left.shape[1]
+def coarse_config(small_width, f, config):
+    """The Config of the coarse match of a pair shrunk f times (``small_width`` wide),
+    for ``config``'s bounds ("auto" for one to find)."""
+    dmin = None if config.dmin == "auto" else config.dmin
+    dmax = None if config.dmax == "auto" else config.dmax
+    return _coarse(small_width, f, dmin, dmax, config.threads)
+
+
+def _coarse(small_width, f, dmin, dmax, threads):
     low = -(small_width // 4) if dmin is None else math.floor(dmin / f)
     high = small_width // 2 if dmax is None else math.ceil(dmax / f)
     low, high = max(low, -(small_width - 1)), min(high, small_width - 1)
@@ -89,8 +93,16 @@ def estimate(small_left, small_right, f, width, dmin=None, dmax=None, threads=No
         low = high
     # Only confident matches: the accurate pipeline's checks, and distinct ones (a tie
     # over the whole range, as on a featureless pair, says nothing of it).
-    config = resolve(preset="accurate", dmin=low, dmax=high, uniqueness_ratio=DISTINCT,
-                     threads=threads)
+    return resolve(preset="accurate", dmin=low, dmax=high, uniqueness_ratio=DISTINCT,
+                   threads=threads)
+
+
+def estimate(small_left, small_right, f, width, dmin=None, dmax=None, threads=None):
+    """(dmin, dmax) for the full pair (``width`` wide) from its f-times shrunk images;
+    a bound given (not None) is kept as given.  ValueError when the small pair yields no
+    confident disparity to go by."""
+    config = _coarse(small_left.shape[1], f, dmin, dmax, threads)
+    low, high = config.dmin, config.dmax
     found = run_pipeline(small_left, small_right, dict(config.kernel_args(), csw=False, tau=-1),
                          config.stages)[0]
     # A match at the search's end is no minimum found (the best may lie beyond it), and

@@ -75,10 +75,23 @@ def set_up(config, shape, dtype, right=None, sample_min_cost=None, make_plan=Non
     if config.cost == "census":  # before any work: a census too wide for 64 bits
         _said_of("census_window", kernels.contract.census_dtype, stages.census_window,
                  stages.census_pattern)
+    early_s = 0.0
+    if not config.range_known and shrunk is not None:
+        # The coarse match and the match after it use different kernels: load both at
+        # once, so that a first run on an empty cache compiles them together, on every
+        # core (the match's, guessed with dmin as given, is right unless dmin is auto
+        # and comes out below 0).
+        f = disparity_range.factor(width)
+        guess = config.replace(dmin=0 if config.dmin == "auto" else config.dmin,
+                               dmax=1 if config.dmax == "auto" else config.dmax)
+        early_s = kernels.native.ensure(
+            config_entries(disparity_range.coarse_config(width // f, f, config),
+                           np.dtype(dtype))
+            + config_entries(guess, np.dtype(dtype), confidence))
     config = disparity_range.decide(config, width, shrunk=shrunk)
     _said_of("dmin", kernels.contract.check_range, config.dmin, config.dmax, width)
     layout = make_plan(config) if make_plan is not None else None
-    compile_s = load_kernels(config, dtype, confidence)
+    compile_s = early_s + load_kernels(config, dtype, confidence)
     args = config.kernel_args()
     tau, source = -1.0, "off"
     if config.csw:
