@@ -340,17 +340,15 @@ class Rectifier:
             r1, r2, p1, p2, _ = solve(rig.k1, rig.d1, rig.k2, rig.d2, rig.size, rig.r,
                                       rig.t, max(alpha, 0.0) if fisheye else alpha)
         self.r1, self.r2, self.p1, self.p2 = r1, r2, p1, p2
-        if fisheye:
-            self.maps = (fisheye_rectify_maps(rig.k1, rig.d1, r1, p1, rig.size),
-                         fisheye_rectify_maps(rig.k2, rig.d2, r2, p2, rig.size))
-        else:
-            self.maps = (rectify_maps(rig.k1, rig.d1, r1, p1, rig.size, threads),
-                         rectify_maps(rig.k2, rig.d2, r2, p2, rig.size, threads))
         from ..kernels.remap import fixed_maps
 
         width, height = rig.size
-        self.fixed = tuple(fixed_maps(mx, my, (height, width), threads)
-                           for mx, my in self.maps)
+        # Only the fixed-point maps are kept: the float ones are a step to them.
+        self.fixed = tuple(
+            fixed_maps(*(fisheye_rectify_maps(k, d, rr, p, rig.size) if fisheye else
+                         rectify_maps(k, d, rr, p, rig.size, threads)),
+                       (height, width), threads)
+            for k, d, rr, p in ((rig.k1, rig.d1, r1, p1), (rig.k2, rig.d2, r2, p2)))
         self.valid = tuple(f.valid.view(np.bool_) for f in self.fixed)
         self._all_valid = tuple(bool(v.all()) for v in self.valid)
         focal = float(p1[0, 0])
@@ -417,6 +415,24 @@ class Rectifier:
                 f"baseline={c.baseline * scale:.10g}\nwidth={c.width}\nheight={c.height}\n")
 
 
+def _folder(path):
+    """``path`` as a folder, created with its parents if missing; OptionError naming it
+    when it is something else or can't be made."""
+    from pathlib import Path
+
+    from ..config.params import OptionError
+
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise OptionError("output_dir", f"{path} exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OptionError("output_dir", f"can't create the folder {path} "
+                                        f"({exc.strerror or exc})") from None
+    return path
+
+
 def _rig_files(rig):
     """The files a rig was read from, as named inputs (csw.io.safety.check_outputs)."""
     return {f"rig {i + 1}": path for i, path in enumerate(getattr(rig, "paths", ()))}
@@ -428,17 +444,15 @@ def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
     rectified pair's calibration, Middlebury style, so that ``csw match
     out_dir/left.png out_dir/right.png --depth z.pfm`` uses it), all or none written.
     Returns the Rectifier."""
-    from pathlib import Path
 
     from ..io.atomic import atomic_write_all
     from ..io.formats import png_writer
     from ..io.images import ImageError, read_colour
     from ..io.safety import check_outputs
 
-    out_dir = Path(out_dir)
+    out_dir = _folder(out_dir)
     outputs = {"left": out_dir / "left.png", "right": out_dir / "right.png",
                "calib": out_dir / "calib.txt"}
-    out_dir.mkdir(parents=True, exist_ok=True)
     check_outputs({"left_raw": left, "right_raw": right, **_rig_files(rig)}, outputs,
                   {"left": (".png",), "right": (".png",), "calib": (".txt",)})
     rect = Rectifier(rig, alpha, threads)
@@ -478,10 +492,8 @@ def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None):
     from ..io.safety import check_outputs
 
     rect = Rectifier(rig, alpha, threads)
-    out_dir = Path(out_dir)
-    folders = {side: out_dir / side for side in ("left", "right")}
-    for folder in folders.values():
-        folder.mkdir(parents=True, exist_ok=True)
+    out_dir = _folder(out_dir)
+    folders = {side: _folder(out_dir / side) for side in ("left", "right")}
     calib = folders["left"] / "calib.txt"
     text = rect.calib_text().encode()
     check_outputs(_rig_files(rig), {"calib": calib}, {"calib": (".txt",)})
