@@ -115,8 +115,10 @@ def estimate(small_left, small_right, f, width, dmin=None, dmax=None, threads=No
     out_low = dmin if dmin is not None else \
         math.floor(bottom * f - MARGIN * abs(bottom) * f - PAD * f)
     out_high = dmax if dmax is not None else math.ceil(top * f * (1 + MARGIN) + PAD * f)
-    out_low = max(out_low, -(width - 1))
-    out_high = max(min(out_high, width - 1), out_low)
+    if dmin is None:  # a found bound stays within the image; a given one is checked later
+        out_low = max(out_low, -(width - 1))
+    if dmax is None:
+        out_high = max(min(out_high, width - 1), out_low)
     return int(out_low), int(out_high)
 
 
