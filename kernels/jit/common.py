@@ -1,6 +1,7 @@
 """Helpers shared by the kernels' workers: exact bit counts, the stop flag, the CSW
 claim test, the unique rule's distinctness test and the left-right check of a pixel."""
 
+import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic, overload
 
@@ -68,3 +69,12 @@ def lr_agrees(d, back, limit, invalid):
 def is_distinct(best, second, csw_margin):
     """The unique rule's test: a second-best cost exists and beats best by csw_margin %."""
     return second >= 0 and second * 100 > best * (100 + csw_margin)
+
+
+@njit(**SERIAL)
+def keep_or_take(kept, k, take):
+    """int16: k where ``take``, else ``kept``, as a bit blend: the select of the right
+    map's running argmin written so that LLVM keeps it in 16-bit SIMD lanes on AVX2
+    (a conditional expression there compiled to a scalar loop, 3x slower)."""
+    mask = np.int16(-1) if take else np.int16(0)
+    return np.int16((kept & ~mask) | (np.int16(k) & mask))

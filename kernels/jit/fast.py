@@ -25,7 +25,7 @@ from numba import njit
 from ..config import SERIAL
 from ..contract import INVALID, NEG_INVALID, RULE_UNIQUE
 from ..signature import Signature, Spec, arg, scalar_index
-from .common import blocked, ctpop, dtype_of, is_distinct, lr_agrees, stop_requested
+from .common import blocked, ctpop, dtype_of, is_distinct, keep_or_take, lr_agrees, stop_requested
 
 # Disparity ranges up to this pick the minimum with packed keys (see select_row), with
 # or without the right map (beyond it, two passes with the map in the second were
@@ -193,16 +193,17 @@ def _make(cost, acc, csw, right_map, extras, negative):
                     d_r = right_rev_d[base:]
                     for k in range(lo, n):
                         c = never if blocked(claims[k], x, slack) else row_sums[k]
-                        better = c < best_r[k]
-                        best_r[k] = min(c, best_r[k])
-                        d_r[k] = np.int16(k) if better else d_r[k]
+                        b = best_r[k]
+                        d_r[k] = keep_or_take(d_r[k], k, c < b)
+                        best_r[k] = min(c, b)
             else:
                 # The right image's best match per right pixel, from the same costs: for
                 # right pixel x - d, a strict < over ascending x keeps the smallest d
                 # among equals (kept as d - dmin in int16, the sums' lanes).  It goes
                 # with the pass that finds the first index of the minimum (fused into
-                # the slide, LLVM no longer vectorised it); a store only where it
-                # improves compiles to masked stores.
+                # the slide, LLVM no longer vectorised it).  Every lane is stored
+                # (keep_or_take): a store only where the cost improves needs masked
+                # 16-bit stores, which AVX2 lacks, and LLVM left that loop scalar.
                 best_r = right_best_rev[base:]
                 d_r = right_rev_d[base:]
                 if keyed and ndisp <= KEYED_RANGE:
@@ -221,9 +222,9 @@ def _make(cost, acc, csw, right_map, extras, negative):
                     if right_map:  # a pass of its own
                         for k in range(lo, n):
                             v = row_sums[k]
-                            if v < best_r[k]:
-                                d_r[k] = np.int16(k)
-                                best_r[k] = v
+                            b = best_r[k]
+                            d_r[k] = keep_or_take(d_r[k], k, v < b)
+                            best_r[k] = min(v, b)
                 else:
                     for k in range(lo, n):
                         row_sums[k] = row_sums[k] + add[k] - sub[k]
@@ -232,9 +233,9 @@ def _make(cost, acc, csw, right_map, extras, negative):
                         for k in range(lo, n):
                             v = row_sums[k]
                             first = min(first, np.int16(k) if v == best else none)
-                            if v < best_r[k]:
-                                d_r[k] = np.int16(k)
-                                best_r[k] = v
+                            b = best_r[k]
+                            d_r[k] = keep_or_take(d_r[k], k, v < b)
+                            best_r[k] = min(v, b)
                     else:
                         for k in range(lo, n):
                             first = min(first, np.int16(k) if row_sums[k] == best
