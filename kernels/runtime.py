@@ -3,6 +3,7 @@ threads (an entry called through ctypes releases the GIL), each stripe with its 
 scratch, and stop them within a row on Ctrl-C.  No Numba here."""
 
 import os
+import threading
 from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 
 import numpy as np
@@ -81,10 +82,16 @@ def run_stripes(task, count, threads, work):
     Ctrl-C only in the main thread and between bytecodes, never inside an entry, so the
     stripes run in the pool's threads while this thread waits: on a Ctrl-C it sets the
     flag, the stripes return within a row, and the interrupt is raised again here.
-    work: the run's size; a run under DIRECT_WORK runs in the calling thread.
+    work: the run's size; a run under DIRECT_WORK runs in the calling thread, as does a
+    run on one thread asked for from a thread other than the main one.
     """
     stop = new_stop_flag()
-    if work < DIRECT_WORK:
+    if work < DIRECT_WORK or (threads == 1 and
+                              threading.current_thread() is not threading.main_thread()):
+        # One thread asked for by a thread that is not the main one (a stream's frames
+        # side by side): run here, since the frames would otherwise queue for the one
+        # pool thread of size 1; only the main thread sees a Ctrl-C, and it stops
+        # starting frames.
         return [task(i, stop) for i in range(count)]
     futures = [_pool(threads).submit(task, i, stop) for i in range(count)]
     try:

@@ -127,11 +127,13 @@ def crowded_end(disparity, settings):
     where invalid) crowd the last disparity of the range it was matched with
     (``settings``, a Result's): the scene is probably nearer than dmax allows.  None
     when they don't."""
-    valid = disparity[np.isfinite(disparity)]
     top = settings["dmax"]
-    if valid.size == 0:
+    # Counts, not a copy of the valid pixels: NaN compares False (a stream pays this on
+    # every frame).
+    valid = np.count_nonzero(np.isfinite(disparity))
+    if valid == 0:
         return None
-    share = float(np.mean(valid >= top - 1))
+    share = np.count_nonzero(disparity >= top - 1) / valid
     if share < CROWDED_END:
         return None
     advice = ("a larger --dmax" if settings.get("range_source") == "auto" else

@@ -5,6 +5,7 @@ chooses between the two for files.  Both prepare through :mod:`csw.matching.setu
 """
 
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -145,13 +146,18 @@ class Matcher:
 
     >>> matcher = csw.Matcher(dmax=64)                      # the same options as csw.match
     >>> result = matcher.match(left, right)                 # a csw.Result, as csw.match's
+    >>> for result in matcher.stream(pairs): ...            # frames in flight, in order
 
     pixels: the images' type whose kernels are loaded now (np.uint8 by default; a pair of
     another type loads its own on first use; None: none now).  A range "auto" is found
     from the first pair and kept for the next ones (``settings["range_source"]`` says
-    so).  One Matcher may be used from several threads at once: each thread matches
-    with scratch of its own (kernels/workspace.py), and the matcher keeps nothing of a
-    pair but that first range.
+    so).  The set-up of a frame size (its checks, its kernels, its arguments) is made on
+    its first pair and kept, unless it depends on the pixels (tau auto with CSW samples
+    each pair), so that the next pairs pay only their matching.
+
+    One Matcher may be used from several threads at once: each thread matches with
+    scratch of its own (kernels/workspace.py), and the matcher keeps nothing of a pair
+    but that first range and the set-ups.
     """
 
     def __init__(self, pixels=np.uint8, config=None, **options):
@@ -161,44 +167,154 @@ class Matcher:
         # already (csw's own callers, which resolve before they read any file).
         self.config = resolve(**options) if config is None else config
         self._found = None  # the config with the range found on the first pair
+        self._ready = {}  # (config, shapes, dtypes, confidence) -> Prepared
         if pixels is not None and self.config.range_known:
             load_kernels(self.config, np.dtype(pixels))
 
     def match(self, left, right, want_confidence=False):
         """Match a rectified pair (paths or arrays, as for :func:`csw.match`); returns a
         :class:`Result`."""
-        config = self._found or self.config
-        result = _match(config, left, right, want_confidence)
+        return self._match_with(self._found or self.config, left, right, want_confidence)
+
+    def _match_with(self, config, left, right, want_confidence):
+        result = _match(config, left, right, want_confidence, self._ready)
         if self._found is None and not config.range_known:
             s = result.settings
             self._found = config.replace(dmin=s["dmin"], dmax=s["dmax"],
                                          range_source="auto (from the first pair)")
         return result
 
+    def stream(self, pairs, in_flight=None, want_confidence=False, errors="raise"):
+        """Match a stream of rectified pairs; yield their :class:`Result` in order.
 
-def _match(config, left, right, want_confidence):
-    """One pair with a resolved ``config``."""
+        pairs: an iterable of (left, right), paths or arrays as for :meth:`match`; it is
+            read only as frames are started, so a camera or a video can feed it.
+        in_flight: frames matched at once, each on threads of its own; default: as
+            :func:`stream_plan` decides from the first frame's size (small frames: one
+            frame per thread, since a frame under about 50 million pixel-disparities
+            runs on one thread; large ones: one frame at a time, cut into row stripes).
+        errors: "raise" (a frame's error ends the stream) or "yield" (the frame's
+            exception is yielded in its place and the stream goes on).
+
+        The first frame is matched alone (it finds a range "auto" for the rest).  A
+        result equals :meth:`match`'s on the same pair bit for bit; its settings'
+        ``threads`` says how many threads its frame used.  Frames are read from
+        ``pairs`` in this thread, at most ``in_flight`` ahead of the one yielded; on a
+        Ctrl-C, no frame is started after it and the ones running finish first.  When
+        ``pairs`` itself raises, the frames it gave before are yielded first.
+        """
+        if errors not in ("raise", "yield"):
+            raise ValueError(f"errors must be 'raise' or 'yield', got {errors!r}")
+        from concurrent.futures import ThreadPoolExecutor
+
+        iterator = iter(pairs)
+        for left, right in iterator:  # the first frame, alone
+            first = self._guarded(self._found or self.config, left, right, want_confidence,
+                                  errors)
+            break
+        else:
+            return
+        config = self._found or self.config
+        shape = first.shape if isinstance(first, Result) else None
+        frames, threads = stream_plan(config, shape, in_flight)
+        yield first
+        frame_config = config.replace(threads=threads)
+        if frames == 1:
+            for left, right in iterator:
+                yield self._guarded(frame_config, left, right, want_confidence, errors)
+            return
+        pending = deque()
+        pool = ThreadPoolExecutor(frames, thread_name_prefix="csw-frame")
+        try:
+            while True:
+                try:
+                    left, right = next(iterator)
+                except StopIteration:
+                    break
+                except Exception:  # the source failed: the frames it gave first count
+                    while pending:
+                        yield pending.popleft().result()
+                    raise
+                pending.append(pool.submit(self._guarded, frame_config, left, right,
+                                           want_confidence, errors))
+                if len(pending) >= frames:
+                    yield pending.popleft().result()
+            while pending:
+                yield pending.popleft().result()
+        finally:
+            for future in pending:  # a Ctrl-C or an error: start nothing more
+                future.cancel()
+            pool.shutdown(wait=True)
+
+    def _guarded(self, config, left, right, want_confidence, errors):
+        """One frame of a stream; its exception returned, not raised, when errors is
+        "yield" (KeyboardInterrupt and SystemExit always propagate)."""
+        try:
+            return self._match_with(config, left, right, want_confidence)
+        except Exception as exc:
+            if errors == "raise":
+                raise
+            return exc
+
+
+# A frame with more work than this (pixels x disparities) is matched in row stripes on
+# every thread, one frame at a time; smaller frames are matched one per thread, side by
+# side.  Measured on 2 cores (reports/stream.md): at 1242x375 d 0..127 (60 M) frames side
+# by side gave more frames a second than stripes; at 1920x1080 d 0..255 (530 M) the two
+# were within noise, and stripes give a frame in half the time.
+STREAM_STRIPES_WORK = 200_000_000
+
+
+def stream_plan(config, shape, in_flight=None):
+    """(frames in flight, threads per frame) for a stream of frames of ``shape`` (H, W;
+    None: not known) matched with ``config`` (its range decided)."""
+    threads = kernels.runtime.thread_count(config.threads)
+    if in_flight is not None:
+        if isinstance(in_flight, bool) or int(in_flight) != in_flight or in_flight < 1:
+            raise ValueError(f"in_flight must be a whole number of frames, at least 1, got "
+                             f"{in_flight!r}")
+        in_flight = int(in_flight)
+        return in_flight, max(1, threads // in_flight)
+    if shape is None or threads == 1:
+        return 1, threads
+    work = shape[0] * shape[1] * (config.dmax - config.dmin + 1)
+    return (1, threads) if work > STREAM_STRIPES_WORK else (threads, 1)
+
+
+def _match(config, left, right, want_confidence, ready=None):
+    """One pair with a resolved ``config``.  ready: a dict of set-ups kept between pairs
+    (a Matcher's), filled with the ones that don't depend on the pixels."""
     left, right = as_gray(left, "left"), as_gray(right, "right")
+    key = (config, left.shape, left.dtype, right.shape, right.dtype, want_confidence)
+    prepared = None if ready is None else ready.get(key)
+    compile_seconds = 0.0
+    if prepared is None:
+        def sample_min_cost(args, stages, rows):
+            return match_rows(left, right, dict(args, rows=rows), stages)[2].min_cost
 
-    def sample_min_cost(args, stages, rows):
-        return match_rows(left, right, dict(args, rows=rows), stages)[2].min_cost
+        def shrunk(f):
+            return shrink(left, f), shrink(right, f)
 
-    def shrunk(f):
-        return shrink(left, f), shrink(right, f)
-
-    ready = set_up(config, left.shape, left.dtype, right=(right.shape, right.dtype),
-                   sample_min_cost=sample_min_cost, confidence=want_confidence,
-                   shrunk=shrunk)
+        prepared = set_up(config, left.shape, left.dtype, right=(right.shape, right.dtype),
+                          sample_min_cost=sample_min_cost, confidence=want_confidence,
+                          shrunk=shrunk)
+        compile_seconds = prepared.compile_seconds
+        # Kept unless it came from these pixels: a range or a tau found from the pair.
+        if ready is not None and config.range_known and \
+                prepared.settings["tau_source"] != "auto":
+            ready[key] = prepared
     start = time.perf_counter()
     # This thread's workspace: a notebook's or a batch's repeated matches reuse their
     # scratch instead of faulting it in again (kernels/workspace.py).
-    disparity, confidence, raw = run_pipeline(left, right, ready.args, ready.config.stages,
+    disparity, confidence, raw = run_pipeline(left, right, prepared.args,
+                                              prepared.config.stages,
                                               confidence=want_confidence,
                                               workspace=kernels.workspace.for_this_thread())
     seconds = time.perf_counter() - start
     if confidence is None:  # not computed: zeros that take no memory (a fresh 4 bytes a
         # pixel per match made glibc return and fault in the heap's top on every call)
         confidence = np.broadcast_to(np.float32(0), disparity.shape)
-    note = crowded_end(disparity, ready.settings)
+    settings = dict(prepared.settings)  # each result its own, a kept set-up's unchanged
+    note = crowded_end(disparity, settings)
     return Result(disparity, confidence, raw.min_cost, raw.evaluated, raw.candidates,
-                  ready.settings, seconds, ready.compile_seconds, [note] if note else [])
+                  settings, seconds, compile_seconds, [note] if note else [])
