@@ -87,9 +87,26 @@ def make_layers(width, height, dmax, seed):
     return layers
 
 
-def render(width=450, height=375, dmax=64, seed=0, rows=None):
+def moving_layers(width, height, dmax, seed, phase):
+    """The scene's layers at ``phase`` (0..1, one loop of a sequence): each box and disc
+    swings across the image and in depth on its own cycle (its disparity stays within
+    0.35..0.95 of dmax, nearer than the background), the background stays."""
+    layers = make_layers(width, height, dmax, seed)
+    top = max(dmax, 4)
+    moved = [layers[0]]
+    for i, layer in enumerate(layers[1:]):
+        angle = 2 * np.pi * (phase * (1 + i % 2) + i / 4)
+        dx = 0.12 * width * np.sin(angle)
+        depth = min(max(layer.c + 0.15 * top * np.cos(angle), 0.35 * top), 0.95 * top)
+        moved.append(Layer(0.0, 0.0, float(depth), layer.x0 + dx, layer.x1 + dx, layer.y0,
+                           layer.y1, layer.round, layer.seed))
+    return moved
+
+
+def render(width=450, height=375, dmax=64, seed=0, rows=None, phase=None):
     """Render the scene, or rows ``rows = (first, end)`` of it (every pixel depends on its
-    own coordinates only, so a band equals those rows of the whole scene).
+    own coordinates only, so a band equals those rows of the whole scene); ``phase``
+    (0..1): the moving scene of :func:`moving_layers` at that point of its loop.
 
     Returns (left uint8 (H, W), right uint8 (H, W), gt float32 (H, W) left disparity,
     nonocc bool (H, W): True where the left pixel is visible in the right image).
@@ -98,7 +115,8 @@ def render(width=450, height=375, dmax=64, seed=0, rows=None):
         raise ValueError("the synthetic scene needs at least 8x8 pixels")
     if not 1 <= dmax < width:
         raise ValueError(f"dmax must be between 1 and width - 1 ({width - 1})")
-    layers = make_layers(width, height, dmax, seed)
+    layers = make_layers(width, height, dmax, seed) if phase is None else \
+        moving_layers(width, height, dmax, seed, phase)
     first, end = (0, height) if rows is None else rows
     ys, xs = np.mgrid[first:end, 0:width].astype(np.float64)
     shape = ys.shape
@@ -169,6 +187,45 @@ def write_scene(directory, width=450, height=375, dmax=64, seed=0):
                       (directory / "nonocc.png", png_writer((nonocc * 255).astype(np.uint8))),
                       (directory / "calib.txt", lambda tmp: Path(tmp).write_text(calib))])
     return left, right, gt, nonocc
+
+
+def write_sequence(directory, frames, width=450, height=375, dmax=64, seed=0, video=False,
+                   rate=30.0):
+    """A moving scene (:func:`moving_layers`, one loop over the frames): left/NNNNNN.png,
+    right/NNNNNN.png and gt/NNNNNN.pfm per frame, and calib.txt; with ``video``, instead
+    of the images, sbs.mp4 (the pair side by side, H.264) beside gt/.  Each file is
+    written atomically; a rerun writes the sequence again.  Returns the paths written
+    (the video, or the left folder)."""
+    from pathlib import Path
+
+    from ..io import atomic_write, pfm_writer, png_writer
+
+    directory = Path(directory)
+    for folder in (["gt"] if video else ["left", "right", "gt"]):
+        (directory / folder).mkdir(parents=True, exist_ok=True)
+    atomic_write(directory / "calib.txt",
+                 lambda tmp: Path(tmp).write_text(calib_text(width, height, dmax)))
+
+    def pairs():
+        for index in range(frames):
+            left, right, gt, _ = render(width, height, dmax, seed, phase=index / frames)
+            name = f"{index:06d}"
+            atomic_write(directory / "gt" / f"{name}.pfm", pfm_writer(gt))
+            if not video:
+                atomic_write(directory / "left" / f"{name}.png", png_writer(left))
+                atomic_write(directory / "right" / f"{name}.png", png_writer(right))
+            yield left, right
+
+    if not video:
+        for _ in pairs():
+            pass
+        return directory / "left"
+    from ..io.video import write_video
+
+    path = directory / "sbs.mp4"
+    write_video(path, (np.concatenate(pair, axis=1) for pair in pairs()), rate,
+                quality=12)
+    return path
 
 
 def _band(args):

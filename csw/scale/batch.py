@@ -441,12 +441,14 @@ class SummaryPairs(Sequence):
         return next(itertools.islice(iter(self), index, None))
 
 
-def write_summary(path, log, options, interrupted=False):
+def write_summary(path, log, options, interrupted=False, extra=None):
     """Write the JSON summary atomically, one pair a line in the jobs' order, and return
     the report: counts, options, interrupted, failed (the failed pairs' entries), noted
     ((name, note) of the first NOTED_KEPT notes on pairs) and notes (how many), and
-    pairs (every entry, read from the summary when asked for)."""
-    head = {"counts": log.counts, "interrupted": interrupted, "options": options}
+    pairs (every entry, read from the summary when asked for); ``extra``: more fields
+    for the summary's head (a video's frames a second ...)."""
+    head = {"counts": log.counts, "interrupted": interrupted, "options": options,
+            **(extra or {})}
 
     def write(tmp):
         with open(tmp, "wb") as out:

@@ -79,6 +79,7 @@ MATCH_HELP = opt.sectioned(
                                 "focal", "baseline", "cx", "cy", "doffs", "units",
                                 "calib_units"]),
     ("Raw pairs from a calibrated rig", ["rigs", "alpha", "rectified_left", "frame"]),
+    ("Video", ["sbs", "preview_video", "preview_sbs"]),
     ("Many pairs, big pairs and clusters", ["output_dir", "manifest", "suffix",
                                             "overwrite", "summary", "memory_limit",
                                             "workers", "scheduler"]),
@@ -167,11 +168,20 @@ MATCH_HELP = opt.sectioned(
               show_default=True,
               help="With --rig: the point cloud in the rectified left camera's frame, or "
                    "back in the raw left camera's (what a robot's transform tree expects).")
+@click.option("--sbs", is_flag=True,
+              help="LEFT is one side-by-side video (its left half the left camera, as "
+                   "ZED's and other stereo webcams give it); no RIGHT.")
+@click.option("--preview-video", type=click.Path(dir_okay=False),
+              help="Video: also write the colour disparity video (.mp4, .mkv, .mov or "
+                   ".avi; Turbo over the range, invalid black).")
+@click.option("--preview-sbs", is_flag=True,
+              help="With --preview-video: the left frame beside the disparity.")
 @opt.stage_options()
 @click.pass_context
 def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, summary, workers,
           scheduler, memory_limit, preview, cost_map, confidence, depth, cloud,
-          depth_preview, max_depth, units, rigs, alpha, rectified_left, frame, **_):
+          depth_preview, max_depth, units, rigs, alpha, rectified_left, frame, sbs,
+          preview_video, preview_sbs, **_):
     """Match LEFT against RIGHT (left is the reference) and write the disparity map.
 
     The match of left pixel x is right pixel x - d, for d in [DMIN, DMAX].  With --csw,
@@ -185,6 +195,10 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     Many pairs: give two folders (pairs by file name) or --manifest, and --output-dir.
     A pair that fails is reported and the others go on; the exit code is 1 if any failed.
 
+    Video: give two videos (frames paired by index) or one side-by-side video with
+    --sbs, and --output-dir (a map per frame, NNNNNN.pfm) or --preview-video or both.
+    Frames are matched side by side on every core while the next are decoded.
+
     \b
     Examples:
       csw match left.png right.png -o disp.pfm --preview view.png
@@ -195,10 +209,17 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
       csw match lefts/ rights/ -O maps/ --workers 2
       csw match big_left.tif big_right.tif -o disp.tif --memory-limit 1GiB
       csw match raw_l.png raw_r.png --rig stereo.yml -o disp.pfm --cloud c.ply
+      csw match drive.mp4 --sbs -O maps/ --preview-video view.mp4 --dmax 64
     """
     from csw.config import params
+    from csw.io.video import is_video
 
     settings = opt.given(ctx, MATCH_OPTIONS)
+    if sbs or (left is not None and is_video(left)):
+        return match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
+                           preview_video, preview_sbs, settings)
+    if preview_video or preview_sbs:
+        raise click.UsageError("--preview-video and --preview-sbs are for video input")
     calibration = None
     three_d = dict(depth=depth, cloud=cloud, depth_preview=depth_preview,
                    max_depth=max_depth, units=units)
@@ -314,4 +335,68 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, c
         click.echo(f"csw: {report['notes'] - len(report['noted'])} more note(s) in "
                    f"{summary_path}", err=True)
     if counts["failed"]:
+        raise SystemExit(1)
+
+
+# Options that name one pair's outputs, or that only batches and single pairs take.
+NOT_FOR_VIDEO = ("output", "manifest", "preview", "cost_map", "confidence", "depth", "cloud",
+                 "depth_preview", "memory_limit", "workers", "scheduler", "rigs",
+                 "rectified_left", "calib")
+
+
+def match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
+                preview_video, preview_sbs, settings):
+    """The video form: two videos or one side-by-side video, a map per frame into
+    OUTPUT_DIR and/or a preview video."""
+    from csw.config import params
+    from csw.scale.stream import match_video as run
+
+    given = [name for name in NOT_FOR_VIDEO
+             if ctx.get_parameter_source(name).name != "DEFAULT"]
+    if given:
+        flag = "--" + given[0].replace("_", "-").rstrip("s")
+        raise click.UsageError(f"{flag} is not for video input; give --output-dir for "
+                               "a map per frame, or --preview-video")
+    if left is None:
+        raise click.UsageError("give a video (two, or one with --sbs)")
+    if sbs and right is not None:
+        raise click.UsageError("--sbs takes one side-by-side video; drop RIGHT")
+    if not sbs and right is None:
+        raise click.UsageError("give the right camera's video too, or --sbs for one "
+                               "side-by-side video")
+    if output_dir is None and preview_video is None:
+        raise click.UsageError("give --output-dir DIR for a map per frame, "
+                               "--preview-video FILE, or both")
+    if preview_sbs and preview_video is None:
+        raise click.UsageError("--preview-sbs needs --preview-video")
+    with opt.library_errors():
+        config = params.resolve(**settings)
+    try:
+        with opt.library_errors():
+            report = run(left, right, sbs=sbs, out_dir=output_dir, suffix=suffix,
+                         overwrite=overwrite, preview_video=preview_video,
+                         preview_sbs=preview_sbs, summary=summary, config=config)
+    except OSError as exc:
+        raise write_error(exc) from None
+    counts = report["counts"]
+    latency = report["latency_ms"] or {"median": 0.0, "p99": 0.0}
+    where = f"; summary in {summary or Path(output_dir) / 'summary.json'}" \
+        if output_dir or summary else ""
+    size = "x".join(str(n) for n in report["size"]) if report["size"] else "-"
+    low, high = report["range"] or ("-", "-")
+    click.echo(f"{report['frames']} frames ({size}, d {low}..{high}): {counts['ok']} "
+               f"matched, {counts['skipped']} skipped, {counts['failed']} failed; "
+               f"{report['frames_per_second']:.1f} frames/s, latency median "
+               f"{latency['median']:.1f} ms, p99 {latency['p99']:.1f} ms{where}", err=True)
+    if preview_video and report["frames"]:
+        click.echo(f"wrote {preview_video}", err=True)
+    for note in report["stream_notes"]:
+        click.echo(f"csw: {note}", err=True)
+    for entry in report["failed"][:20]:
+        click.echo(f"failed: frame {entry['frame']}: {entry['error']}", err=True)
+    for name, note in report["noted"][:3]:
+        click.echo(f"csw: frame {name}: {note}", err=True)
+    if report["stopped"]:
+        click.echo(f"csw: stopped early: {report['stopped']}", err=True)
+    if counts["failed"] or report["stopped"]:
         raise SystemExit(1)

@@ -1,0 +1,388 @@
+"""A video, or two, in; a map per frame and a preview video out: ``csw match`` on video.
+
+The frames go through :meth:`csw.Matcher.stream` (frames in flight on every core), while
+this thread decodes the next frames and writes the finished ones.  Outputs follow the
+batch's rules (csw.scale.batch): every map is written atomically into the output
+folder, a rerun skips the frames whose map exists, a frame that fails is reported in
+the summary and the others go on, and a Ctrl-C keeps what is written, the preview video
+closed as it stands and the summary marked interrupted.
+"""
+
+import os
+import time
+from array import array
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..config.params import OptionError, resolve
+from ..io import safety
+from ..io.formats import check_range, suffixes, write_disparity
+from ..io.pictures import INVALID, TURBO
+from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoReader, VideoWriter
+from ..matching.matcher import Matcher
+from .batch import PairLog, failure_message, write_summary
+from .executor import progress_bar
+
+FRAME_NAME = "{index:06d}"  # a frame's outputs: 000000.pfm, 000001.pfm ...
+
+
+@dataclass
+class Frame:
+    """One frame of a stream: its index, the pair (gray uint8 (H, W)), the left frame
+    in colour where asked for (uint8 (H, W, 3)), or the error that lost it."""
+
+    index: int
+    left: np.ndarray | None = None
+    right: np.ndarray | None = None
+    colour: np.ndarray | None = None
+    error: Exception | None = None
+
+
+def video_frames(left, right=None, sbs=False, colour=False):
+    """(frames, info): the frames (:class:`Frame`) of two videos paired by index, or of
+    one side-by-side video (left half: the left camera); info: "rate" (the left video's
+    frames a second, 0 when unknown), "frames" (its header's count, 0 when unknown) and
+    "notes", a list the generator appends a note to when one video ends before the
+    other (the stream stops at the shorter).
+
+    VideoError, one line, for a file that is not a video, an odd side-by-side width, a
+    pair of videos of different sizes, or a frame whose size differs from the first's
+    (raised when that frame is reached).
+    """
+    if sbs == (right is not None):
+        raise ValueError("give two videos, or one side-by-side video with sbs")
+    readers = [VideoReader(left, colour)]
+    if right is not None:
+        readers.append(VideoReader(right))
+        if readers[0].size != readers[1].size:
+            sizes = " and ".join(f"{w}x{h}" for w, h in (r.size for r in readers))
+            raise VideoError(f"the two videos' frames differ in size ({sizes}); csw "
+                             "matches frames of one size")
+    width, height = readers[0].size
+    if sbs and width % 2:
+        raise VideoError(f"{left}: a side-by-side frame must have an even width (two "
+                         f"halves), got {width}")
+    info = {"rate": readers[0].rate, "frames": readers[0].frames, "notes": []}
+    return _frames(readers, sbs, info["notes"]), info
+
+
+def _frames(readers, sbs, notes):
+    first = None
+    iterators = [iter(reader) for reader in readers]
+    count = 0
+    try:
+        while True:
+            items = [next(iterator, None) for iterator in iterators]
+            if items[0] is None or items[-1] is None:
+                if len(items) == 2 and items[0] is not items[1]:
+                    ended, other = (0, 1) if items[0] is None else (1, 0)
+                    notes.append(f"{readers[ended].path} ended after {count} frames, "
+                                 f"before {readers[other].path}; matched the {count} "
+                                 "frames both have")
+                return
+            count += 1
+            index = items[0][0]
+            error = next((item[1] for item in items if isinstance(item[1], Exception)), None)
+            if error is not None:
+                yield Frame(index, error=error)
+                continue
+            left, right = items[0][1], (items[1][1] if len(items) == 2 else None)
+            rgb = items[0][2]
+            if sbs:
+                half = left.shape[1] // 2
+                left, right = left[:, :half], left[:, half:]
+                rgb = None if rgb is None else rgb[:, :half]
+            if first is None:
+                first = left.shape
+            elif left.shape != first or right.shape != first:
+                raise VideoError(f"frame {index}: the size changed from {_size(first)} to "
+                                 f"{_size(left.shape)}; csw matches a stream of one size")
+            yield Frame(index, left, right, rgb)
+    finally:
+        for reader in readers:
+            reader.close()
+
+
+def _size(shape):
+    return f"{shape[1]}x{shape[0]}"
+
+
+# Turbo as packed RGBA (little-endian: R in the first byte), with one more entry, black,
+# for invalid pixels: a frame's colours are one lookup of 4 bytes a pixel (about 1 ms at
+# 640x480, where indexing the (256, 3) table took 7).
+_TURBO_RGBA = np.concatenate([
+    TURBO[:, 0].astype(np.uint32) | TURBO[:, 1].astype(np.uint32) << 8
+    | TURBO[:, 2].astype(np.uint32) << 16 | np.uint32(255) << 24,
+    [np.uint32(INVALID[0] | INVALID[1] << 8 | INVALID[2] << 16 | 255 << 24)]]).astype(np.uint32)
+
+
+def disparity_colours(disparity, low, high):
+    """uint8 (H, W, 4) RGBA, alpha 255: a disparity map (float32 (H, W), NaN invalid) in
+    Turbo over low..high, invalid black: csw.io.pictures' colours (to a level), without
+    its colour bar, in the few steps a video frame can afford."""
+    scale = 255.0 / max(high - low, 1e-12)
+    t = np.subtract(disparity, np.float32(low), dtype=np.float32)
+    t *= np.float32(scale)
+    t += np.float32(0.5)
+    np.clip(t, 0, 255, out=t)  # NaN stays NaN
+    t[np.isnan(t)] = len(_TURBO_RGBA) - 1
+    index = t.astype(np.uint16)
+    return np.take(_TURBO_RGBA, index).view(np.uint8).reshape(*disparity.shape, 4)
+
+
+def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
+                overwrite=False, preview_video=None, preview_sbs=False, summary=None,
+                progress=True, in_flight=None, config=None, **match_options):
+    """Match every frame of two videos (frames paired by index), or of one side-by-side
+    video (``sbs``: the left half is the left camera).
+
+    Parameters
+    ----------
+    left, right : path
+        The videos (right None with ``sbs``).
+    out_dir : path, optional
+        A folder (created if missing) for each frame's map, NNNNNN + ``suffix`` (frame
+        0 is 000000.pfm), and summary.json.  A frame whose map exists is skipped unless
+        ``overwrite``, so a rerun resumes.
+    preview_video : path, optional
+        The colour disparity video (Turbo over the range, invalid black), at the input's
+        frame rate; ``preview_sbs``: the left frame beside it.
+    summary : path, optional
+        Where to write the JSON summary (default: out_dir/summary.json; none without
+        out_dir).
+    progress : bool or callable
+        A progress bar on stderr with frames a second; or ``progress(done, total)``.
+    in_flight : int, optional
+        Frames matched at once (see :meth:`csw.Matcher.stream`).
+    **match_options
+        As for :func:`csw.match`; or ``config``, a csw.config.params.Config.
+
+    Returns
+    -------
+    dict
+        The summary: counts (ok, skipped, failed), frames, seconds, frames_per_second,
+        latency_ms (median and p99: from a frame read to its result), size, range,
+        stream_notes (one video ended first ...), stopped (why the stream ended early:
+        a frame size that changed, a file damaged past a point; None), failed (the
+        failed frames' entries), interrupted, and pairs (read from the summary file when
+        asked for; an empty list without one).
+    """
+    if config is not None and match_options:
+        raise TypeError("give match_video its options or a resolved config, not both")
+    config = resolve(**match_options) if config is None else config
+    if out_dir is None and preview_video is None:
+        raise OptionError("output_dir", "give --output-dir for the maps, --preview-video, "
+                                        "or both")
+    if suffix not in suffixes("whole"):
+        raise OptionError("suffix", f"must be one of {', '.join(suffixes('whole'))}, got "
+                                    f"{suffix!r}")
+    if config.range_known:
+        try:
+            check_range(f"map{suffix}", config.dmax, config.dmin)
+        except ValueError as exc:
+            raise OptionError("dmax", str(exc)) from None
+    inputs = [Path(p) for p in (left, right) if p is not None]
+    for path in inputs:
+        safety.protect(path)
+    out_dir = Path(out_dir) if out_dir is not None else None
+    if out_dir is not None and out_dir.exists() and not out_dir.is_dir():
+        raise OptionError("output_dir", f"{out_dir} exists and is not a folder")
+    summary = Path(summary) if summary else (out_dir / "summary.json" if out_dir else None)
+    checked = {"preview_video": preview_video, "summary": summary}
+    real_inputs = {os.path.realpath(p): str(p) for p in inputs}
+    for option, path in checked.items():
+        if path is None:
+            continue
+        if os.path.realpath(path) in real_inputs:  # checked here too: a notebook's call
+            # runs outside the CLI's guard
+            raise OptionError(option, f"{path} is an input of this run; an output must not "
+                                      "overwrite an input")
+        if option == "preview_video" and Path(path).suffix.lower() not in WRITTEN_SUFFIXES:
+            raise OptionError(option, f"{path} is not named as a video; use .mp4, .mkv, "
+                                      ".mov or .avi")
+        safety.check_target(path, option)
+        folder = Path(path).parent
+        if folder != out_dir and not folder.is_dir():
+            raise OptionError(option, f"folder {str(folder)!r} does not exist; create it "
+                                      "first")
+    if preview_video is not None and summary is not None and \
+            Path(preview_video).resolve() == Path(summary).resolve():
+        raise OptionError("preview_video", "the preview video and the summary are one file")
+    frames, info = video_frames(left, right, sbs, colour=preview_sbs)
+    if out_dir is not None:
+        try:
+            out_dir.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OptionError("output_dir", f"can't create the folder {out_dir} "
+                                            f"({exc.strerror or exc})") from None
+    matcher = Matcher(config=config)
+    run = _Run(out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
+               info["rate"] or 30.0, progress, info["frames"] or None)
+    try:
+        run.go(matcher, frames, in_flight)
+    except VideoError as exc:  # the stream can't go on (a size changed, a damaged file):
+        run.stopped = str(exc)  # what is done is kept, and the summary says why it ended
+    except KeyboardInterrupt:
+        run.finish(config, info["notes"], interrupted=True)
+        raise
+    except BaseException:
+        run.abandon()
+        raise
+    return run.finish(config, info["notes"])
+
+
+class _Run:
+    """The bookkeeping of one video's run: outputs written as results come, the
+    summary's entries kept on disk (csw.scale.batch.PairLog), latencies in an array."""
+
+    def __init__(self, out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
+                 rate, progress, total=None):
+        self.out_dir, self.suffix, self.overwrite = out_dir, suffix, overwrite
+        self.summary, self.preview_sbs = summary, preview_sbs
+        self.preview_path, self.rate, self.progress = preview_video, rate, progress
+        self.preview = None
+        folder = summary.parent if summary is not None else None
+        self.log = _GrowingLog(folder)
+        self.latency = array("d")
+        self.size = self.range = None
+        self.start = time.perf_counter()
+        self.seconds = 0.0
+        self.bar = progress_bar(total, "csw match", "frame", progress is True)
+        self.total = total
+        self.stopped = None  # why the stream ended before its end, if it did
+
+    def map_path(self, index):
+        return self.out_dir / (FRAME_NAME.format(index=index) + self.suffix)
+
+    def go(self, matcher, frames, in_flight):
+        waiting = deque()  # the frames handed to the matcher, oldest first
+
+        def pairs():
+            for frame in frames:
+                if frame.error is not None:
+                    self.add(frame.index, "failed", error=failure_message(frame.error))
+                    if self.preview is not None:  # keep the video's timing: a black frame
+                        self.write_preview(frame, None)
+                    continue
+                if self.out_dir is not None and not self.overwrite and \
+                        self.map_path(frame.index).exists():
+                    if self.preview_path is None:
+                        self.add(frame.index, "skipped")
+                        continue
+                waiting.append((frame, time.perf_counter()))
+                yield frame.left, frame.right
+
+        for result in matcher.stream(pairs(), in_flight=in_flight, errors="yield"):
+            frame, started = waiting.popleft()
+            if isinstance(result, Exception):
+                self.add(frame.index, "failed", error=failure_message(result))
+                continue
+            self.latency.append(time.perf_counter() - started)
+            self.save(frame, result)
+
+    def save(self, frame, result):
+        s = result.settings
+        if self.size is None:
+            self.size = [int(result.shape[1]), int(result.shape[0])]
+            self.range = [s["dmin"], s["dmax"]]
+            if self.out_dir is not None:
+                check_range(f"map{self.suffix}", s["dmax"], s["dmin"])
+        status = "ok"
+        if self.out_dir is not None:
+            path = self.map_path(frame.index)
+            if path.exists() and not self.overwrite:
+                status = "skipped"  # matched only for the preview; the map stays
+            else:
+                write_disparity(path, result.disparity)
+        if self.preview_path is not None:
+            self.write_preview(frame, result.disparity)
+        self.add(frame.index, status, seconds=result.seconds,
+                 invalid=100.0 * result.invalid_share, notes=list(result.notes))
+
+    def write_preview(self, frame, disparity):
+        low, high = self.range or (0, 1)
+        if disparity is None:
+            shape = (self.size[1], self.size[0]) if self.size else frame_shape(frame)
+            picture = np.zeros((*shape, 4), np.uint8)
+        else:
+            picture = disparity_colours(disparity, low, high)
+        if self.preview_sbs:
+            left = frame.colour if frame.colour is not None else \
+                np.zeros_like(picture)
+            picture = np.concatenate([left, picture], axis=1)
+        if self.preview is None:
+            self.preview = VideoWriter(self.preview_path, self.rate)
+        self.preview.write(picture)
+
+    def add(self, index, status, **fields):
+        entry = {"name": FRAME_NAME.format(index=index), "frame": index, "status": status,
+                 **fields}
+        if self.out_dir is not None and status != "failed":
+            entry["output"] = str(self.map_path(index))
+        self.log.add(entry)
+        self.bar.update()
+        if callable(self.progress):
+            self.progress(self.log.done, self.total)
+
+    def finish(self, config, notes, interrupted=False):
+        self.seconds = time.perf_counter() - self.start
+        self.bar.close()
+        if self.preview is not None:
+            self.preview.close()  # what was matched, a whole video, interrupted or not
+        latency = np.frombuffer(self.latency, np.float64) * 1e3
+        extra = {
+            "frames": self.log.done,
+            "seconds": round(self.seconds, 3),
+            # Frames matched a second, over the whole run (reading and writing included).
+            "frames_per_second": round(latency.size / self.seconds, 2) if self.seconds
+            else 0.0,
+            "latency_ms": {"median": round(float(np.median(latency)), 2),
+                           "p99": round(float(np.percentile(latency, 99)), 2)}
+            if latency.size else None,
+            "size": self.size, "range": self.range, "stream_notes": list(notes),
+            "stopped": self.stopped,
+        }
+        try:
+            if self.summary is not None:
+                report = write_summary(self.summary, self.log, config.as_dict(),
+                                       interrupted, extra)
+            else:
+                report = dict(counts=self.log.counts, interrupted=interrupted,
+                              options=config.as_dict(), failed=list(self.log.failed),
+                              noted=list(self.log.noted), notes=self.log.notes, pairs=[],
+                              **extra)
+        finally:
+            self.log.close()
+        return report
+
+    def abandon(self):
+        self.bar.close()
+        if self.preview is not None:
+            self.preview.discard()
+        self.log.close()
+
+
+def frame_shape(frame):
+    return frame.left.shape if frame.left is not None else (2, 2)
+
+
+class _GrowingLog(PairLog):
+    """A PairLog whose entries come in the order they are added, with no count known
+    ahead (a video's frames): offsets grow as entries come."""
+
+    def __init__(self, folder):
+        super().__init__(folder if folder is not None else Path("."), 0)
+        self._offsets = array("q")
+
+    def add(self, index_or_entry, entry=None):
+        entry = index_or_entry if entry is None else entry
+        self.offsets = self._offsets  # for lines()
+        self._offsets.append(-1)
+        super().add(len(self._offsets) - 1, entry)
+
+    def lines(self):
+        self.offsets = self._offsets
+        return super().lines()

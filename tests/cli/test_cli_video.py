@@ -1,0 +1,141 @@
+"""``csw match`` on video and ``csw synth --frames``: what a user types, what it writes."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from video_fixtures import damage_jpeg_frame, write_frames
+
+from csw.data.synth import render
+from csw_cli.main import cli
+
+av = pytest.importorskip("av")  # in the test extras: skipped only outside them
+
+CSW = [sys.executable, "-c", "from csw_cli.main import main; main()"]
+
+
+def invoke(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+def sbs_mjpeg(path, count, width=96, height=64, dmax=15, distinct=6):
+    """A side-by-side MJPEG video of the moving synthetic scene (``distinct`` frames
+    rendered, repeated to ``count``)."""
+    pairs = [np.concatenate(render(width, height, dmax, 5, phase=i / distinct)[:2], axis=1)
+             for i in range(distinct)]
+    return write_frames(path, [pairs[i % distinct] for i in range(count)])
+
+
+def one_line_error(result, code=2):
+    lines = result.output.strip().splitlines()
+    return result.exit_code == code and len(lines) == 1 and "Traceback" not in result.output
+
+
+def test_synth_video_then_match_it(tmp_path):
+    result = invoke("synth", tmp_path / "seq", "--size", "128x96", "--dmax", 20, "--frames",
+                    5, "--video")
+    assert result.exit_code == 0, result.output
+    assert sorted(os.listdir(tmp_path / "seq")) == ["calib.txt", "gt", "sbs.mp4"]
+    result = invoke("match", tmp_path / "seq" / "sbs.mp4", "--sbs", "-O", tmp_path / "maps",
+                    "--dmax", 20, "--preview-video", tmp_path / "view.mp4")
+    assert result.exit_code == 0, result.output
+    last = [line for line in result.output.splitlines() if "frames/s" in line][-1]
+    assert last.startswith("5 frames (128x96, d 0..20): 5 matched, 0 skipped, 0 failed;")
+    assert "latency median" in last and "p99" in last
+    assert sorted(os.listdir(tmp_path / "maps")) == \
+        [f"{i:06d}.pfm" for i in range(5)] + ["summary.json"]
+    summary = json.loads((tmp_path / "maps" / "summary.json").read_text())
+    assert summary["frames"] == 5 and summary["frames_per_second"] > 0
+    assert summary["latency_ms"]["median"] > 0
+    assert (tmp_path / "view.mp4").stat().st_size > 0
+
+
+def test_synth_frames_writes_image_folders_that_match_as_a_batch(tmp_path):
+    assert invoke("synth", tmp_path / "seq", "--size", "96x64", "--dmax", 15, "--frames",
+                  3).exit_code == 0
+    assert sorted(os.listdir(tmp_path / "seq" / "left")) == \
+        ["000000.png", "000001.png", "000002.png"]
+    result = invoke("match", tmp_path / "seq" / "left", tmp_path / "seq" / "right", "-O",
+                    tmp_path / "maps", "--dmax", 15)
+    assert result.exit_code == 0, result.output
+    assert "3 matched" in result.output
+
+
+@pytest.mark.parametrize("args, says", [
+    (["-o", "d.pfm"], "--output is not for video"),
+    (["--cloud", "c.ply"], "--cloud is not for video"),
+    ([], "give --output-dir"),
+    (["-O", "maps", "--preview-sbs"], "--preview-sbs needs --preview-video"),
+    (["-O", "maps", "other.mp4"], "drop RIGHT"),
+])
+def test_video_usage_errors_are_one_line(tmp_path, args, says):
+    video = sbs_mjpeg(tmp_path / "v.avi", 2)
+    os.chdir(tmp_path)
+    result = invoke("match", video, "--sbs", *args)
+    assert result.exit_code == 2 and says in result.output, result.output
+    assert sorted(os.listdir(tmp_path)) == ["v.avi"]
+
+
+def test_two_videos_need_both_and_a_preview_needs_video_input(tmp_path, lr_pngs):
+    video = sbs_mjpeg(tmp_path / "v.avi", 2)
+    result = invoke("match", video, "-O", tmp_path / "maps")
+    assert result.exit_code == 2 and "--sbs" in result.output
+    result = invoke("match", lr_pngs / "l.png", lr_pngs / "r.png", "-o", tmp_path / "d.pfm",
+                    "--preview-video", tmp_path / "v.mp4")
+    assert result.exit_code == 2 and "for video input" in result.output
+
+
+def test_a_file_that_is_not_a_video_writes_nothing(tmp_path):
+    (tmp_path / "fake.mp4").write_text("hello")
+    result = invoke("match", tmp_path / "fake.mp4", "--sbs", "-O", tmp_path / "maps",
+                    "--preview-video", tmp_path / "v.mp4")
+    assert one_line_error(result) and "not a readable video" in result.output
+    assert sorted(os.listdir(tmp_path)) == ["fake.mp4"]
+
+
+def test_a_damaged_frame_fails_alone_and_exits_1(tmp_path):
+    video = sbs_mjpeg(tmp_path / "v.avi", 6)
+    damage_jpeg_frame(video, 2)
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--dmax", 15)
+    assert result.exit_code == 1, result.output
+    assert "5 matched, 0 skipped, 1 failed" in result.output
+    assert "failed: frame 2: " in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "maps" / "000002.pfm").exists()
+    assert (tmp_path / "maps" / "000005.pfm").exists()
+
+
+def test_ctrl_c_keeps_the_frames_written_and_marks_the_summary(tmp_path):
+    sbs_mjpeg(tmp_path / "v.avi", 3000, width=320, height=240, dmax=31)
+    command = [*CSW, "match", "v.avi", "--sbs", "--dmax", "31", "--threads", "1"]
+    # Compiled (or loaded) first, on a short run, so that the run below is matching
+    # when the signal comes.
+    sbs_mjpeg(tmp_path / "s.avi", 2, width=320, height=240, dmax=31)
+    subprocess.run([*command[:4], "s.avi", *command[5:], "-O", "warm"], cwd=tmp_path,
+                   check=True, capture_output=True)
+    process = subprocess.Popen([*command, "-O", "maps", "--preview-video", "view.mp4"],
+                               cwd=tmp_path, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline and len(os.listdir(tmp_path / "maps")
+                                         if (tmp_path / "maps").exists() else []) < 5:
+        time.sleep(0.2)
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130, stderr
+    assert "Traceback" not in stderr
+    summary = json.loads((tmp_path / "maps" / "summary.json").read_text())
+    assert summary["interrupted"] is True
+    done = summary["counts"]["ok"]
+    assert 5 <= done < 3000
+    maps = sorted(p for p in os.listdir(tmp_path / "maps") if p.endswith(".pfm"))
+    assert maps == [f"{i:06d}.pfm" for i in range(done)]
+    frames = sum(1 for _ in av.open(str(tmp_path / "view.mp4")).decode(video=0))
+    assert frames == done
+    temporaries = [p for folder in (tmp_path, tmp_path / "maps")
+                   for p in os.listdir(folder) if p.startswith(".csw-tmp")]
+    assert temporaries == []
