@@ -118,3 +118,7 @@ def test_luma_of_8_bit_colour_is_the_integer_formula():
     np.testing.assert_array_equal(luma(rgb), (r * 19595 + g * 38470 + b * 7471 + 0x8000) >> 16)
     np.testing.assert_array_equal(luma(rgb[:, ::2]),  # a strided view too
                                   ((r * 19595 + g * 38470 + b * 7471 + 0x8000) >> 16)[:, ::2])
+    # A large image goes in row bands on two threads: the same values, band edges too.
+    big = np.random.default_rng(8).integers(0, 256, (1111, 1282, 3)).astype(np.uint8)
+    r, g, b = (big[..., i].astype(np.int64) for i in range(3))
+    np.testing.assert_array_equal(luma(big), (r * 19595 + g * 38470 + b * 7471 + 0x8000) >> 16)
