@@ -355,8 +355,14 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     try:
         tasks = ((jobs[i], outputs[i]) for i in todo)
         three_d = dict(max_depth=max_depth, units=units)
-        for k, entry in run_tasks(run_job, tasks, client, config=config, calib=calib,
-                                  three_d=three_d, rig=rectifier):
+        side_by_side, pair_config = 1, config
+        if client is None and todo:
+            # Small pairs, as a stream's frames: one per thread, side by side.
+            side_by_side, threads = _side_by_side(config, jobs[todo[0]])
+            pair_config = config.replace(threads=threads)
+        for k, entry in run_tasks(run_job, tasks, client, side_by_side=side_by_side,
+                                  config=pair_config, calib=calib, three_d=three_d,
+                                  rig=rectifier):
             log.add(todo[k], entry)
             bar.update()
             if callable(progress):
@@ -372,6 +378,23 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     finally:
         bar.close()
         log.close()
+
+
+def _side_by_side(config, job):
+    """(pairs at once, threads per pair) for a batch on this machine, from its first
+    pair's size as its header gives it (csw.matching.matcher.stream_plan), one at a time
+    when that can't be read (the pair's own error comes when it is matched).  A range
+    found from each pair (or its calib.txt) is planned as a quarter of the width."""
+    from ..io.images import image_header
+    from ..matching.matcher import stream_plan
+
+    try:
+        height, width = image_header(job.left)[2]
+    except (ValueError, OSError, TypeError):
+        return 1, config.threads
+    if not config.range_known:
+        config = config.replace(dmin=0, dmax=max(1, width // 4))
+    return stream_plan(config, (height, width))
 
 
 NOTED_KEPT = 20  # notes on pairs (a range cut short...) a batch's report repeats

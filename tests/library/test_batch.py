@@ -108,11 +108,36 @@ def test_an_interrupted_batch_says_what_finished(folders, monkeypatch):
 
     monkeypatch.setattr(csw.scale.batch, "run_job", run_then_stop)
     jobs = csw.jobs_from_folders(root / "left", root / "right")
-    with pytest.raises(KeyboardInterrupt):
-        csw.match_many(jobs, root / "out", dmax=12, progress=False)
+    with pytest.raises(KeyboardInterrupt):  # one thread: one pair at a time
+        csw.match_many(jobs, root / "out", dmax=12, progress=False, threads=1)
     summary = json.loads((root / "out" / "summary.json").read_text())
     assert summary["interrupted"] and summary["counts"]["ok"] == 1
     assert sorted(p.name for p in (root / "out").iterdir()) == ["p0.pfm", "summary.json"]
+
+
+def test_small_pairs_run_side_by_side_and_give_the_same_maps(folders, monkeypatch):
+    import threading
+
+    root, _ = folders
+    seen = set()
+    real = csw.scale.batch.run_job
+
+    def noting_thread(task, **options):
+        seen.add(threading.current_thread().name)
+        assert options["config"].threads == 1  # one thread each, side by side
+        return real(task, **options)
+
+    monkeypatch.setattr(csw.scale.batch, "run_job", noting_thread)
+    jobs = csw.jobs_from_folders(root / "left", root / "right")
+    report = csw.match_many(jobs, root / "two", dmax=12, progress=False, threads=2)
+    assert report["counts"]["ok"] == len(jobs)
+    assert [p["name"] for p in report["pairs"]] == [job.name for job in jobs]  # in order
+    assert all(name.startswith("csw-pair") for name in seen)
+    alone = csw.match_many(jobs, root / "one", dmax=12, progress=False, threads=1)
+    assert alone["counts"]["ok"] == len(jobs)
+    for job in jobs:
+        np.testing.assert_array_equal(csw.read_disparity(root / "two" / f"{job.name}.pfm"),
+                                      csw.read_disparity(root / "one" / f"{job.name}.pfm"))
 
 
 def test_a_batch_pair_is_a_single_pair_and_can_be_striped(folders, monkeypatch):
