@@ -263,9 +263,10 @@ class _Run:
         def pairs():
             for frame in frames:
                 if frame.error is not None:
-                    self.add(frame.index, "failed", error=failure_message(frame.error))
-                    if self.preview is not None:  # keep the video's timing: a black frame
-                        self.write_preview(frame, None)
+                    with signals_held():
+                        self.add(frame.index, "failed", error=failure_message(frame.error))
+                        if self.preview is not None:  # the video's timing: a black frame
+                            self.write_preview(frame, None)
                     continue
                 if self.out_dir is not None and not self.overwrite and \
                         self.map_path(frame.index).exists():
@@ -281,7 +282,8 @@ class _Run:
                 self.add(frame.index, "failed", error=failure_message(result))
                 continue
             self.latency.append(time.perf_counter() - started)
-            self.save(frame, result)
+            with signals_held():  # a frame's map, preview frame and entry: all or none
+                self.save(frame, result)
 
     def save(self, frame, result):
         s = result.settings
@@ -363,6 +365,43 @@ class _Run:
         if self.preview is not None:
             self.preview.discard()
         self.log.close()
+
+
+class signals_held:
+    """Within the ``with``, Ctrl-C, SIGTERM and SIGHUP wait: one that comes is acted on
+    (by the handler that was in place) when the block ends, so that a frame's outputs
+    and its summary entry are written together or not at all.  Outside the main thread,
+    where no handler can be set, it does nothing."""
+
+    NAMES = ("SIGINT", "SIGTERM", "SIGHUP")
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self.saved, self.caught = {}, []
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        for name in self.NAMES:
+            number = getattr(signal, name, None)
+            if number is not None:
+                self.saved[number] = signal.signal(
+                    number, lambda signum, frame: self.caught.append((signum, frame)))
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        for number, handler in self.saved.items():
+            signal.signal(number, handler)
+        if self.caught and exc[0] is None:
+            signum, frame = self.caught[0]
+            handler = self.saved.get(signum)
+            if callable(handler):
+                handler(signum, frame)  # raises KeyboardInterrupt, or csw's Stopped
+            elif handler == signal.SIG_DFL:
+                signal.raise_signal(signum)
+        return False
 
 
 def frame_shape(frame):
