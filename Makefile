@@ -3,7 +3,8 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test coverage bench bench-batch bench-peers bench-scale bench-startup tradeoff quality first-photo bench-rectify lint \
+.PHONY: run test coverage bench bench-batch bench-peers bench-scale bench-startup bench-stream tradeoff quality first-photo \
+	bench-rectify lint \
 	format clean
 
 $(PY):
@@ -60,6 +61,11 @@ quality: $(VENV)/.installed-dev
 # CSW_CHESSBOARD_DIR holds OpenCV's stereo calibration sample: reports/rectify.md
 bench-rectify: $(VENV)/.installed-dev
 	$(PY) scripts/rectify_report.py
+
+# Streams against StereoBM (frames a second, in process) and whole csw match runs on a
+# video against a short OpenCV script: reports/stream.md
+bench-stream: $(VENV)/.installed-dev
+	$(PY) scripts/stream_report.py
 
 # Three photograph-like pairs no test uses, matched with no range given: reports/first-photo.md
 first-photo: $(VENV)/.installed-dev
