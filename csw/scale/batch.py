@@ -8,11 +8,10 @@ import json
 import os
 import tempfile
 import time
+from array import array
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-
-import numpy as np
 
 from ..camera import calibration as calib_module
 from ..camera.geometry import check_max_depth
@@ -407,7 +406,9 @@ class PairLog:
 
     def __init__(self, folder, total):
         self.handle = tempfile.TemporaryFile(dir=folder if folder.is_dir() else None)
-        self.offsets = np.full(total, -1, np.int64)
+        # Each entry's offset, -1 until it comes; grown as entries come past ``total``
+        # (a video's frames, whose count is not known ahead).
+        self.offsets = array("q", [-1]) * total
         self.counts = {"ok": 0, "skipped": 0, "failed": 0}
         self.failed = []
         self.noted = []  # (name, note) of the first NOTED_KEPT notes; all are in the summary
@@ -418,6 +419,8 @@ class PairLog:
         return sum(self.counts.values())
 
     def add(self, index, entry):
+        if index >= len(self.offsets):
+            self.offsets.extend([-1] * (index + 1 - len(self.offsets)))
         self.offsets[index] = self.handle.seek(0, os.SEEK_END)
         self.handle.write(json.dumps(entry, sort_keys=True, default=str).encode() + b"\n")
         self.counts[entry["status"]] += 1

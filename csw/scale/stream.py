@@ -245,7 +245,7 @@ class _Run:
         self.preview_path, self.rate, self.progress = preview_video, rate, progress
         self.preview = None
         folder = summary.parent if summary is not None else None
-        self.log = _GrowingLog(folder)
+        self.log = PairLog(folder if folder is not None else Path("."), 0)
         self.latency = array("d")
         self.size = self.range = None
         self.start = time.perf_counter()
@@ -305,11 +305,12 @@ class _Run:
                  invalid=100.0 * result.invalid_share, notes=list(result.notes))
 
     def write_preview(self, frame, disparity):
-        low, high = self.range or (0, 1)
-        if disparity is None:
-            shape = (self.size[1], self.size[0]) if self.size else frame_shape(frame)
-            picture = np.zeros((*shape, 4), np.uint8)
+        if disparity is None:  # a lost frame: black, once the video's size is known
+            if self.size is None:
+                return
+            picture = np.zeros((self.size[1], self.size[0], 4), np.uint8)
         else:
+            low, high = self.range
             picture = disparity_colours(disparity, low, high)
         if self.preview_sbs:
             left = frame.colour if frame.colour is not None else \
@@ -324,7 +325,7 @@ class _Run:
                  **fields}
         if self.out_dir is not None and status != "failed":
             entry["output"] = str(self.map_path(index))
-        self.log.add(entry)
+        self.log.add(self.log.done, entry)  # in the order they come
         self.bar.update()
         if callable(self.progress):
             self.progress(self.log.done, self.total)
@@ -402,26 +403,3 @@ class signals_held:
             elif handler == signal.SIG_DFL:
                 signal.raise_signal(signum)
         return False
-
-
-def frame_shape(frame):
-    return frame.left.shape if frame.left is not None else (2, 2)
-
-
-class _GrowingLog(PairLog):
-    """A PairLog whose entries come in the order they are added, with no count known
-    ahead (a video's frames): offsets grow as entries come."""
-
-    def __init__(self, folder):
-        super().__init__(folder if folder is not None else Path("."), 0)
-        self._offsets = array("q")
-
-    def add(self, index_or_entry, entry=None):
-        entry = index_or_entry if entry is None else entry
-        self.offsets = self._offsets  # for lines()
-        self._offsets.append(-1)
-        super().add(len(self._offsets) - 1, entry)
-
-    def lines(self):
-        self.offsets = self._offsets
-        return super().lines()
