@@ -26,6 +26,7 @@ from .contract import (
     dtype_name,
     pad_edge,
 )
+from .workspace import empty
 
 
 def variant(pixels, size, pattern):
@@ -34,7 +35,7 @@ def variant(pixels, size, pattern):
 
 
 def census_transform(image, size, threads=None, pad=0, reverse=False, out=None, *,
-                     pattern):
+                     pattern, workspace=None):
     """Census codes of a uint8/uint16 (H, W) image with a size x size window (odd) and a
     pattern ("dense" or "sparse"): an (H, W) array of the narrowest unsigned type holding
     the pattern's bits (at most 64: dense up to 7 x 7, sparse up to 15 x 15).
@@ -42,10 +43,14 @@ def census_transform(image, size, threads=None, pad=0, reverse=False, out=None, 
     pad, reverse: the codes edge-padded by ``pad`` on every side, (H + 2 pad, W + 2 pad),
     and with reverse, their columns reversed: the layouts the engines read, written in
     place rather than copied.  out: the array to write them into (of that shape and
-    type, C-contiguous), else a new one."""
+    type, C-contiguous), else a new one.  workspace: a kernels.workspace.Workspace for
+    the image's padded copy, else a new one."""
     image = np.ascontiguousarray(image)
-    padded = pad_edge(image, size // 2, image.dtype)
     height, width = image.shape
+    h = size // 2
+    padded = pad_edge(image, h, image.dtype,
+                      out=empty(workspace, "census-image", (height + 2 * h, width + 2 * h),
+                                image.dtype))
     shape = (height + 2 * pad, width + 2 * pad)
     codes = np.empty(shape, census_dtype(size, pattern)) if out is None else out
     run = native.entry("census", variant(image.dtype, size, pattern))

@@ -129,10 +129,10 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
         codes = census_dtype(census_window, census_pattern)
         left_p = census_transform(left, census_window, threads, pad=h,
                                   out=empty(workspace, "padded-left", shape, codes),
-                                  pattern=census_pattern)
+                                  pattern=census_pattern, workspace=workspace)
         right_rev = census_transform(right, census_window, threads, pad=h, reverse=True,
                                      out=empty(workspace, "padded-right", shape, codes),
-                                     pattern=census_pattern)
+                                     pattern=census_pattern, workspace=workspace)
         s = s._replace(cost=SHD)
     else:  # padding the reversed image is reversing the padded one
         left_p = pad_edge(left, h, left.dtype,

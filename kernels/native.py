@@ -48,20 +48,31 @@ class Entry:
     def __init__(self, key, signature, function, worker=None):
         self.key, self.signature, self.function = key, signature, function
         self.worker = worker  # the plain-Python worker, with the JIT off
+        # What every call needs, made once: a stream calls each entry once per frame,
+        # and a small frame's whole match takes a few milliseconds.
+        self._names = [a.name for a in signature.arrays] + list(signature.scalars)
+        self._checks = [(a.name, a.dtype, a.ndim) for a in signature.arrays]
+        ndims = sum(a.ndim for a in signature.arrays)
+        self._pointers = ctypes.c_void_p * max(len(signature.arrays), 1)
+        self._dims = ctypes.c_int64 * max(ndims, 1)
+        self._values = ctypes.c_int64 * max(len(signature.scalars), 1)
 
     def __call__(self, **arguments):
-        arrays, scalars = self.signature.ordered(arguments, self.key)
-        for array, a in zip(arrays, self.signature.arrays, strict=True):
-            if array.dtype != a.dtype or array.ndim != a.ndim or not array.flags.c_contiguous:
-                raise TypeError(f"kernel {self.key}: {a.name} must be C-contiguous {a.dtype} "
-                                f"with {a.ndim} dimensions, got {array.dtype} {array.shape}")
+        if len(arguments) != len(self._names) or not all(n in arguments for n in self._names):
+            self.signature.ordered(arguments, self.key)  # raises, naming what is wrong
+        arrays = []
+        for name, dtype, ndim in self._checks:
+            array = arguments[name]
+            if array.dtype != dtype or array.ndim != ndim or not array.flags.c_contiguous:
+                raise TypeError(f"kernel {self.key}: {name} must be C-contiguous {dtype} "
+                                f"with {ndim} dimensions, got {array.dtype} {array.shape}")
+            arrays.append(array)
+        scalars = [int(arguments[n]) for n in self.signature.scalars]
         if self.function is None:  # NUMBA_DISABLE_JIT: the worker is plain Python
             return int(self.worker(*arrays, np.array(scalars, np.int64)))
-        pointers = (ctypes.c_void_p * max(len(arrays), 1))(*map(_address, arrays))
         dims = [d for a in arrays for d in a.shape]
-        dims = (ctypes.c_int64 * max(len(dims), 1))(*dims)
-        values = (ctypes.c_int64 * max(len(scalars), 1))(*(int(v) for v in scalars))
-        status = self.function(pointers, dims, values)
+        status = self.function(self._pointers(*map(_address, arrays)), self._dims(*dims),
+                               self._values(*scalars))
         if failed():
             raise RuntimeError(f"csw's kernel {self.key} failed: it reached Numba's error "
                                "path, which csw's kernels never take; please report it")

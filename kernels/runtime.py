@@ -14,12 +14,19 @@ import numpy as np
 DIRECT_WORK = 50_000_000
 
 
+_CORES = {}  # pid -> cores: a system call per run cost about 20 us of a frame's overhead
+
+
 def cores():
-    """The cores this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
+    """The cores this process may run on (read once per process: a change of affinity
+    after the first run is not followed)."""
+    pid = os.getpid()
+    if pid not in _CORES:
+        try:
+            _CORES[pid] = len(os.sched_getaffinity(0))
+        except AttributeError:  # not Linux
+            _CORES[pid] = os.cpu_count() or 1
+    return _CORES[pid]
 
 
 def max_threads():
