@@ -8,6 +8,14 @@ from numba import carray, cfunc, types
 from ..config import ENTRY
 from ..signature import spec_of
 
+# The Numba helpers a stored entry may call: the GIL's, which the loader provides, and
+# those only its error path calls, which the loader records as a failure (the workers
+# never take that path).  Any other, such as reshape's numba_attempt_nocopy_reshape, is
+# on a normal path: loaded without Numba, every call would fail.
+LOADED_WITHOUT_NUMBA = frozenset({
+    "numba_gil_ensure", "numba_gil_release", "numba_do_raise", "numba_unpickle",
+    "numba_runtime_build_excinfo_struct", "NRT_Free", "NRT_MemInfo_call_dtor"})
+
 SIGNATURE = types.int64(types.CPointer(types.voidptr), types.CPointer(types.int64),
                         types.CPointer(types.int64))
 
@@ -57,6 +65,12 @@ def stored_form(spec, compiled, name):
     if allocators:
         raise RuntimeError(f"csw's kernel {name} allocates ({', '.join(allocators)}); a "
                            "worker must take its scratch from its driver")
+    helpers = [n for n in imports if n.startswith(("numba_", "NRT_")) and
+               n not in LOADED_WITHOUT_NUMBA]
+    if helpers:
+        raise RuntimeError(f"csw's kernel {name} calls Numba's {', '.join(helpers)}, which "
+                           "a kernel loaded without Numba does not have (kernels/loader.py); "
+                           "write the worker without it")
     description = dict(spec.signature.describe(), numba=numba.__version__, imports=imports)
     return description, code
 

@@ -241,3 +241,17 @@ def test_a_worker_that_allocates_is_refused_when_it_compiles(tmp_path):
                           capture_output=True, text=True, check=True)
     assert "csw's kernel probe allocates (NRT_MemInfo_alloc" in done.stdout
     assert not list(tmp_path.iterdir())
+
+
+def test_a_worker_that_needs_a_numba_helper_on_its_way_is_refused(tmp_path):
+    """A kernel loaded without Numba has only the GIL's helpers and its error path's
+    stand-ins: a worker that calls another Numba helper on its normal path (reshape's
+    numba_attempt_nocopy_reshape did) would fail on every call, so the compile refuses
+    it, in one line, and stores nothing."""
+    script = PROBE_WORKER.replace("BUG", "a[0] = a.reshape(1, 1)[0, 0]")
+    done = subprocess.run([sys.executable, "-c", script, str(tmp_path)],
+                          capture_output=True, text=True, check=True)
+    assert done.stdout.startswith("csw's kernel probe calls Numba's "
+                                  "numba_attempt_nocopy_reshape")
+    assert "\n" not in done.stdout.strip()
+    assert not list(tmp_path.iterdir())
