@@ -119,15 +119,23 @@ def config_entries(config, dtype, confidence=False):
 
 
 def preset_entries(presets=None):
-    """Every kernel entry the presets run, plain and with CSW, for 8- and 16-bit images:
-    what ``csw compile`` puts in the cache."""
+    """Every kernel entry the presets run, plain and with CSW, for 8- and 16-bit images,
+    and the luma of colour pairs: what ``csw compile --preset`` puts in the cache."""
     wanted = []
     for preset in presets or params.PRESETS:
         for csw in (False, True):
             config = params.resolve(preset=preset, csw=csw)
             for dtype in (np.uint8, np.uint16):
                 wanted += config_entries(config, np.dtype(dtype))
-    return list(dict.fromkeys((k, tuple(v)) for k, v in wanted))
+    return list(dict.fromkeys((k, tuple(v)) for k, v in wanted + colour_entries()))
+
+
+def colour_entries():
+    """The luma of RGB and RGBA pairs (csw.io.images.luma), 8- and 16-bit."""
+    from ..kernels import colour
+
+    return [entry for dtype in (np.uint8, np.uint16) for channels in (3, 4)
+            for entry in colour.entries(dtype, channels)]
 
 
 # The options whose values choose which compiled kernels a run loads, with a value of
@@ -146,9 +154,9 @@ LARGEST_WINDOW = 31  # a wider window (rare) compiles its own on first use
 
 def documented_entries():
     """Every kernel entry a run can load, whatever the options' values (windows up to
-    LARGEST_WINDOW), for 8- and 16-bit images, with and without the confidence map, and
-    the remap of raw pairs from a rig: what ``csw compile`` puts in the cache, so that no
-    run after it compiles."""
+    LARGEST_WINDOW), for 8- and 16-bit images, with and without the confidence map, the
+    remap of raw pairs from a rig and the luma of colour pairs: what ``csw compile`` puts
+    in the cache, so that no run after it compiles."""
     import itertools
 
     wanted = []
@@ -171,7 +179,7 @@ def documented_entries():
 
     for dtype in (None, "fixed", np.uint8, np.uint16):
         wanted += remap.entries(dtype)
-    return list(dict.fromkeys((k, tuple(v)) for k, v in wanted))
+    return list(dict.fromkeys((k, tuple(v)) for k, v in wanted + colour_entries()))
 
 
 def windows_per_type(cost):

@@ -110,15 +110,41 @@ def test_loading_the_kernels_loads_what_the_match_runs(cost, dtype, options):
     assert native._LOADED == loaded
 
 
+def _formula(rgb):
+    r, g, b = (rgb[..., i].astype(np.int64) for i in range(3))
+    return (r * 19595 + g * 38470 + b * 7471 + 0x8000) >> 16
+
+
 def test_luma_of_8_bit_colour_is_the_integer_formula():
-    """8-bit colour goes through Pillow: its result is the formula, for every value."""
+    """8-bit colour: the kernel's result is Pillow's formula, for every value."""
     rgb = np.random.default_rng(7).integers(0, 256, (64, 300, 3)).astype(np.uint8)
     rgb[0, :256] = np.arange(256)[:, None]  # every value in every channel
-    r, g, b = (rgb[..., i].astype(np.int64) for i in range(3))
-    np.testing.assert_array_equal(luma(rgb), (r * 19595 + g * 38470 + b * 7471 + 0x8000) >> 16)
-    np.testing.assert_array_equal(luma(rgb[:, ::2]),  # a strided view too
-                                  ((r * 19595 + g * 38470 + b * 7471 + 0x8000) >> 16)[:, ::2])
-    # A large image goes in row bands on two threads: the same values, band edges too.
+    np.testing.assert_array_equal(luma(rgb), _formula(rgb))
+    np.testing.assert_array_equal(luma(rgb[:, ::2]), _formula(rgb)[:, ::2])  # a strided view
+    from PIL import Image
+
+    np.testing.assert_array_equal(luma(rgb), np.asarray(Image.fromarray(rgb).convert("L")))
+
+
+def test_luma_of_16_bit_colour_and_of_rgba_is_the_same_formula():
+    """16-bit colour, up to its largest value (the sum stays in 32 bits), and RGBA, whose
+    alpha is dropped without a copy of the colour pixels, give the formula too."""
+    rgb = np.random.default_rng(9).integers(0, 65536, (37, 91, 3)).astype(np.uint16)
+    rgb[0, 0] = 65535
+    out = luma(rgb)
+    assert out.dtype == np.uint16 and out[0, 0] == 65535
+    np.testing.assert_array_equal(out, _formula(rgb))
+    rgba = np.concatenate([rgb, np.full((37, 91, 1), 7, np.uint16)], axis=2)
+    np.testing.assert_array_equal(luma(rgba), _formula(rgb))
+
+
+def test_luma_in_stripes_equals_one_piece(monkeypatch):
+    """An image large enough for stripes on every thread gives the same values, stripe
+    edges included."""
+    from csw.kernels import runtime
+
     big = np.random.default_rng(8).integers(0, 256, (1111, 1282, 3)).astype(np.uint8)
-    r, g, b = (big[..., i].astype(np.int64) for i in range(3))
-    np.testing.assert_array_equal(luma(big), (r * 19595 + g * 38470 + b * 7471 + 0x8000) >> 16)
+    whole = luma(big)
+    monkeypatch.setattr(runtime, "DIRECT_WORK", 1)  # every image in stripes
+    np.testing.assert_array_equal(luma(big), whole)
+    np.testing.assert_array_equal(whole, _formula(big))
