@@ -152,8 +152,9 @@ def main():
     print("startup: csw compile", file=sys.stderr, flush=True)
     compiled = [run([*CSW, "compile"], cold_env())[0] for _ in range(1)]
     lines += ["", "## In CI", "",
-              f"`csw compile` (every preset's kernels, plain and with CSW, 8- and 16-bit "
-              f"images) takes {compiled[0]:.1f} s on an empty cache; afterwards every run "
+              f"`csw compile` (every kernel any option can need, for 8- and 16-bit "
+              f"images; `--preset accurate` compiles only the default's) takes "
+              f"{compiled[0]:.1f} s on an empty cache; afterwards every run "
               "is a warm one.  A CI job that keeps the cache between runs "
               "(`NUMBA_CACHE_DIR` or `CSW_KERNEL_CACHE` in a cache step) pays the warm "
               "figures above; one that does not pays the cold ones on its first call."]
