@@ -11,6 +11,8 @@ compiled once per CPU and loaded without Numba (``native``).  Nothing here impor
 until something must be compiled.
 """
 
+import functools
+
 from . import contract, native, workspace  # noqa: F401 (kernels.workspace, for callers)
 from .contract import (
     COSTS,
@@ -24,6 +26,7 @@ from .contract import (
 )
 
 
+@functools.cache  # imported on first use; a stream calls this on every frame
 def _engines():
     from .fast import match_fast
     from .window import match_window

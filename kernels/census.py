@@ -26,6 +26,7 @@ from .contract import (
     dtype_name,
     pad_edge,
 )
+from .pad import Padder
 from .workspace import empty
 
 
@@ -61,15 +62,49 @@ def census_transform(image, size, threads=None, pad=0, reverse=False, out=None, 
     edges = runtime.even_split(height, count)
 
     def stripe(i, stop):
-        return run(image_p=padded, codes=codes,
-                   planes=np.empty((len(places) // 8, width), np.uint8), places=places,
-                   size=size, y0=edges[i], y1=edges[i + 1], pad=pad, reverse=int(reverse))
+        return run(**_arguments(padded, codes, size, pattern, edges[i], edges[i + 1], pad,
+                                reverse))
 
     runtime.run_stripes(stripe, count, count, work)
-    if pad:  # the rows beyond the image: copies of the first and last rows' codes
-        codes[:pad] = codes[pad]
-        codes[height + pad:] = codes[height + pad - 1]
     return codes
+
+
+def _arguments(padded, codes, size, pattern, y0, y1, pad, reverse):
+    """The worker's arguments for rows y0..y1 of the image padded by size // 2 (its
+    scratch made here, in the stripe's own thread)."""
+    places = _places_array(size, pattern)
+    width = padded.shape[1] - 2 * (size // 2)
+    return dict(image_p=padded, codes=codes, planes=np.empty((len(places) // 8, width), np.uint8),
+                places=places, size=size, y0=y0, y1=y1, pad=pad, reverse=int(reverse))
+
+
+def fits_one_stripe(shape, size, pattern):
+    """Whether census_transform runs an image of ``shape`` as one stripe, in the calling
+    thread (what a :class:`CensusPlan` does)."""
+    return shape[0] * shape[1] * len(_places_array(size, pattern)) < runtime.DIRECT_WORK
+
+
+class CensusPlan:
+    """census_transform of many images of one shape and type, made once: the padded
+    copy, the codes and the bound call (a stream's small frames, whose whole match takes
+    a few milliseconds).  ``plan(image)`` writes the codes into ``plan.codes`` (H + 2 pad,
+    W + 2 pad), equal to census_transform's with the same arguments, in the calling
+    thread as one stripe (for images :func:`fits_one_stripe` accepts)."""
+
+    def __init__(self, shape, pixels, size, pattern, pad=0, reverse=False):
+        height, width = shape
+        h = size // 2
+        self.padded = np.empty((height + 2 * h, width + 2 * h), pixels)
+        self.padder = Padder(shape, pixels, h, self.padded)
+        self.codes = np.empty((height + 2 * pad, width + 2 * pad), census_dtype(size, pattern))
+        run = native.entry("census", variant(pixels, size, pattern))
+        self.call = run.bind(**_arguments(self.padded, self.codes, size, pattern, 0, height,
+                                          pad, reverse))
+
+    def __call__(self, image):
+        self.padder(image)
+        self.call()
+        return self.codes
 
 
 @functools.cache

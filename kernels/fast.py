@@ -26,7 +26,7 @@ import functools
 import numpy as np
 
 from . import native, runtime
-from .census import census_transform
+from .census import CensusPlan, census_transform, fits_one_stripe
 from .contract import (
     CENSUS,
     SAD,
@@ -35,9 +35,11 @@ from .contract import (
     candidate_count,
     census_dtype,
     dtype_name,
+    invalid,
     pad_edge,
     validate,
 )
+from .pad import Padder
 from .window import extra_maps, result
 from .workspace import empty, output
 
@@ -110,17 +112,22 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     Other options as for match_window.
     Returns a MatchResult: disparity int32 (H, W), min_cost int64 (H, W).
     """
-    left, right, s, rows = validate(left, right, window=window, dmin=dmin, dmax=dmax,
-                                    cost=cost, csw=csw, tau=tau, rule=rule,
-                                    csw_margin=csw_margin, slack=slack, rows=rows,
-                                    census_window=census_window,
-                                    census_pattern=census_pattern, extras=extras,
-                                    right_map=right_map, lr_check=lr_check)
+    options = dict(window=window, dmin=dmin, dmax=dmax, cost=cost, csw=csw, tau=tau,
+                   rule=rule, csw_margin=csw_margin, slack=slack,
+                   census_window=census_window, census_pattern=census_pattern,
+                   extras=extras, right_map=right_map, lr_check=lr_check)
+    if rows is None and workspace is not None and workspace.plans(np.size(left)):
+        # a plan kept from this thread's last match
+        key = (np.shape(left), np.asarray(left).dtype, np.shape(right),
+               np.asarray(right).dtype, *options.values())
+        plan = workspace.kept("fast-plan", key)
+        if plan is None and len(key[0]) == 2 and FastPlan.fits(key[0], key[1], options):
+            plan = workspace.keep("fast-plan", key, FastPlan(key[0], key[1], **options))
+        if plan is not None:
+            return plan(left, right, into)
+    left, right, s, rows = validate(left, right, rows=rows, **options)
     height, width = left.shape
-    ndisp = s.dmax - s.dmin + 1
-    if ndisp > np.iinfo(np.int16).max:
-        raise ValueError("the fast engine searches at most 32767 disparities at once; "
-                         "narrow dmin..dmax or use the window engine")
+    ndisp = _checked_span(s)
     n_threads = runtime.thread_count(threads)
     h = s.window // 2
     shift = max(0, -s.dmin)  # a negative range reaches right pixels beyond the image
@@ -141,9 +148,7 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                              out=empty(workspace, "padded-right", shape, right.dtype))
     if shift:  # the right image padded `shift` columns more beyond its right edge
         right_rev = np.ascontiguousarray(np.pad(right_rev, ((0, 0), (shift, 0)), mode="edge"))
-    pixels = left_p.dtype
-    acc = accumulator_dtype(pixels, s.cost, s.window)
-    run = native.entry("fast", variant(s.cost, pixels, s.window, s.csw, s.right_costs,
+    run = native.entry("fast", variant(s.cost, left_p.dtype, s.window, s.csw, s.right_costs,
                                        s.extras, s.dmin))
     disp = output(into, "disparity", (height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
@@ -156,24 +161,11 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     if work < runtime.DIRECT_WORK:
         n_threads = 1
     stripes = stripe_bounds(height, s.window, n_threads, rows)
-    wp = left_p.shape[1]
-    never = np.iinfo(acc).max
-
-    second, prev, nxt, right_disp = maps
 
     def stripe(i, stop):
-        # Each stripe owns its scratch, allocated in its own thread.
         y0, y1 = stripes[i]
-        return run(left_p=left_p, right_rev=right_rev,
-                   col_sums=np.empty((wp, ndisp), acc), row_sums=np.empty(ndisp, acc),
-                   claims=np.empty(width + shift, np.int32),
-                   right_best=np.empty(width + shift, acc),
-                   right_d=np.empty(width + shift, np.int16),
-                   disp=disp, min_cost=min_cost, second=second, prev=prev, next=nxt,
-                   right_disp=right_disp, lr_valid=lr_valid, evaluated=evaluated, stop=stop,
-                   window=s.window, dmin=s.dmin, dmax=s.dmax, tau=s.tau, rule=s.rule,
-                   csw_margin=s.csw_margin, slack=s.slack, y0=y0, y1=y1, never=never,
-                   keep_right=s.right_map, lr_limit=s.lr_check)
+        return run(**_arguments(left_p, right_rev, disp, min_cost, maps, lr_valid, evaluated,
+                                s, stop, y0, y1))
 
     runtime.run_stripes(stripe, len(stripes), n_threads, work)
     if rows.size != height:  # only the sampled rows were computed
@@ -182,6 +174,131 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     plain = candidate_count(width, s.dmin, s.dmax) * rows.size
     return result(disp, min_cost, int(evaluated[rows].sum()), plain, s, maps,
                   lr_valid.view(np.bool_) if checked else None)
+
+
+def _checked_span(s):
+    """The disparities searched, dmin..dmax; ValueError beyond the engine's int16 index."""
+    ndisp = s.dmax - s.dmin + 1
+    if ndisp > np.iinfo(np.int16).max:
+        raise ValueError("the fast engine searches at most 32767 disparities at once; "
+                         "narrow dmin..dmax or use the window engine")
+    return ndisp
+
+
+def _arguments(left_p, right_rev, disp, min_cost, maps, lr_valid, evaluated, s, stop, y0, y1):
+    """The worker's arguments for the stripe of rows y0..y1 (ascending row indices into
+    the maps' rows), its scratch made here, in the stripe's own thread."""
+    acc = accumulator_dtype(left_p.dtype, s.cost, s.window)
+    ndisp = s.dmax - s.dmin + 1
+    right_width = disp.shape[1] + max(0, -s.dmin)
+    second, prev, nxt, right_disp = maps
+    return dict(left_p=left_p, right_rev=right_rev,
+                col_sums=np.empty((left_p.shape[1], ndisp), acc),
+                row_sums=np.empty(ndisp, acc), claims=np.empty(right_width, np.int32),
+                right_best=np.empty(right_width, acc),
+                right_d=np.empty(right_width, np.int16),
+                disp=disp, min_cost=min_cost, second=second, prev=prev, next=nxt,
+                right_disp=right_disp, lr_valid=lr_valid, evaluated=evaluated, stop=stop,
+                window=s.window, dmin=s.dmin, dmax=s.dmax, tau=s.tau, rule=s.rule,
+                csw_margin=s.csw_margin, slack=s.slack, y0=y0, y1=y1,
+                never=_never(acc), keep_right=s.right_map, lr_limit=s.lr_check)
+
+
+@functools.cache
+def _never(acc):
+    return int(np.iinfo(acc).max)
+
+
+class FastPlan:
+    """match_fast for many pairs of one shape and type, made once: validated, with its
+    padded images or census codes, its scratch and its bound entry calls (a stream's
+    small frames, whose whole match takes a few milliseconds, paid about a millisecond
+    more for doing this on every call).  ``plan(left, right, into)`` equals match_fast
+    with the same options, bit for bit, in the calling thread as one stripe, on pairs of
+    the planned shape and type (H, W).  Only what :meth:`fits` accepts is planned: a
+    range from 0 up (no extra right columns), run as one stripe.  match_fast keeps one
+    in the workspace it is given, so that a thread's repeated matches use it."""
+
+    def __init__(self, shape, pixels, *, window, dmin, dmax, cost, csw=False, tau=-1,
+                 rule="literal", csw_margin=None, slack=None, census_window=None,
+                 census_pattern=None, extras=False, right_map=False, lr_check=None):
+        options = dict(window=window, dmin=dmin, dmax=dmax, cost=cost, csw=csw, tau=tau,
+                       rule=rule, csw_margin=csw_margin, slack=slack,
+                       census_window=census_window, census_pattern=census_pattern,
+                       extras=extras, right_map=right_map, lr_check=lr_check)
+        blank = np.zeros(shape, pixels)
+        self.shape, self.pixels = tuple(shape), np.dtype(pixels)
+        _, _, s, _ = validate(blank, blank, **options)
+        _checked_span(s)
+        height, width = shape
+        h = s.window // 2
+        padded = (height + 2 * h, width + 2 * h)
+        if s.cost == CENSUS:
+            self.left = CensusPlan(shape, pixels, census_window, census_pattern, pad=h)
+            self.right = CensusPlan(shape, pixels, census_window, census_pattern, pad=h,
+                                    reverse=True)
+            left_p, right_rev = self.left.codes, self.right.codes
+            s = s._replace(cost=SHD)
+        else:  # the padded images, the right one reversed
+            left_p, right_rev = np.empty(padded, pixels), np.empty(padded, pixels)
+            self.left = Padder(shape, pixels, h, left_p)
+            self.right = Padder(shape, pixels, h, right_rev, reverse=True)
+        self.s = s
+        run = native.entry("fast", variant(s.cost, left_p.dtype, s.window, s.csw,
+                                           s.right_costs, s.extras, s.dmin))
+        self.maps = extra_maps(shape, s)  # the 1-row dummies; full maps are fresh per pair
+        self.checked = s.lr_check >= 0
+        self.lr_dummy = np.empty((1, width), np.uint8)
+        self.evaluated = np.zeros(height, np.int64)
+        self.plain = candidate_count(width, s.dmin, s.dmax) * height
+        outputs = (np.empty(shape, np.int32), np.empty(shape, np.int64))
+        lr_valid = np.empty(shape, np.uint8) if self.checked else self.lr_dummy
+        self.call = run.bind(**_arguments(left_p, right_rev, *outputs, self.maps, lr_valid,
+                                          self.evaluated, s, runtime.new_stop_flag(), 0,
+                                          height))
+
+    @staticmethod
+    def fits(shape, pixels, options):
+        """Whether match_fast with these options on pairs of ``shape`` (H, W) can be
+        planned: a range from 0 up, matched (and its census codes made) as one stripe.
+        Options it can't read are not planned: match_fast's checks then say what is
+        wrong with them."""
+        try:
+            dmin, dmax = int(options["dmin"]), int(options["dmax"])
+            if pixels not in (np.uint8, np.uint16) or not 0 <= dmin <= dmax or \
+                    min(shape) < 1 or shape[0] * shape[1] * (dmax - dmin + 1) >= \
+                    runtime.DIRECT_WORK:
+                return False
+            return options["cost"] != "census" or fits_one_stripe(
+                shape, options.get("census_window"), options.get("census_pattern"))
+        except (TypeError, ValueError, KeyError):
+            return False
+
+    def __call__(self, left, right, into=None):
+        if np.shape(left) != self.shape or np.shape(right) != self.shape or \
+                np.asarray(left).dtype != self.pixels or np.asarray(right).dtype != self.pixels:
+            raise ValueError(f"this plan matches {self.pixels} pairs of {self.shape}")
+        s, call = self.s, self.call
+        self.left(left)  # the census codes or the padded image, written in place
+        self.right(right)
+        disp = output(into, "disparity", self.shape, np.int32)
+        min_cost = np.empty(self.shape, np.int64)
+        call.point("disp", disp)
+        call.point("min_cost", min_cost)
+        lr_valid = None
+        if self.checked:
+            lr_valid = output(into, "lr_valid", self.shape, np.uint8)
+            call.point("lr_valid", lr_valid)
+        maps = self.maps
+        if s.extras or s.right_map:  # outputs: fresh for each pair
+            maps = extra_maps(self.shape, s)
+            for name, array in zip(("second", "prev", "next", "right_disp"), maps, strict=True):
+                call.point(name, array)
+        else:
+            maps[3].fill(invalid(s.dmin))
+        call()
+        return result(disp, min_cost, int(self.evaluated.sum()), self.plain, s, maps,
+                      None if lr_valid is None else lr_valid.view(np.bool_))
 
 
 def entries(cost, pixels, window, csw, right_map, extras, dmin=0):

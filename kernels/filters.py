@@ -50,41 +50,121 @@ def lr_consistent(disp, right_disp, limit, invalid=-1, threads=None, out=None):
     return valid.view(np.bool_)
 
 
-def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None):
+def as_float(disp, lr_valid, invalid, out=None, threads=None, workspace=None):
+    """float32 (H, W): the integer map ``disp`` (int32 (H, W)) as floats, NaN where it
+    holds ``invalid`` (contract.invalid) or where ``lr_valid`` (bool or uint8 (H, W), the
+    left-right check; None: no check) is False.  out: a float32 (H, W) array to write
+    into, else a new one.  threads: as for csw.match.  workspace: a
+    kernels.workspace.Workspace that keeps the call, bound, for the next map like this
+    one (a stream's frames)."""
+    disp = np.ascontiguousarray(disp, np.int32)
+    checked = lr_valid is not None
+    lr = np.ascontiguousarray(lr_valid).view(np.uint8) if checked else _NO_CHECK
+    out = np.empty(disp.shape, np.float32) if out is None else out
+    arguments = dict(disp=disp, lr_valid=lr, out=out, invalid=int(invalid),
+                     checked=int(checked))
+    work = disp.size * FLOAT_WORK
+    if workspace is not None and work < runtime.DIRECT_WORK and workspace.plans(disp.size):
+        key = (disp.shape, arguments["invalid"], checked)
+        call = workspace.kept("float-call", key)
+        if call is None:
+            run = native.entry("filters", ("float",))
+            call = workspace.keep("float-call", key,
+                                  run.bind(**arguments, y0=0, y1=disp.shape[0]))
+        for name in ("disp", "lr_valid", "out"):
+            call.point(name, arguments[name])
+        call()
+        return out
+    _by_rows("float", arguments, disp.shape[0], threads=threads, per_pixel=FLOAT_WORK)
+    return out
+
+
+# About 0.3 ns a pixel in one thread, in runtime.DIRECT_WORK's units: parallel from
+# about 25 MP up.
+FLOAT_WORK = 2
+
+
+_NO_CHECK = np.zeros((1, 1), np.uint8)  # the worker never reads it
+
+
+def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None, clear=False):
     """bool (H, W): True for valid pixels in regions of fewer than ``max_size`` pixels,
     where a region is a 4-connected set of valid pixels whose neighbours differ by at
     most ``max_diff``.  Scratch: a union-find forest over the rows' runs (its H * W
     entries are reserved, and only as many as there are runs are touched).
     workspace: a kernels.workspace.Workspace for the scratch and the result (valid until
-    its next speckle mask), else new arrays.  threads: as for csw.match.
+    its next speckle mask), else new arrays.  threads: as for csw.match.  clear: make
+    those pixels of ``disp`` (float32, C-contiguous: changed in place) NaN as well.
 
     Stripes of rows find their regions in parallel, one thread joins them across the
     stripes' edges, and the stripes mark the small regions in parallel."""
     disp = np.ascontiguousarray(disp, np.float32)
     height, width = disp.shape
+    work = disp.size * SPECKLE_WORK
+    if workspace is not None and work < runtime.DIRECT_WORK and workspace.plans(disp.size):
+        key = (disp.shape, int(max_size), float(max_diff))
+        plan = workspace.kept("speckle-plan", key) or \
+            workspace.keep("speckle-plan", key, SpecklePlan(*key))
+        return plan(disp, clear)
     small = empty(workspace, "speckle-mask", disp.shape, np.uint8)
     parent, size = (empty(workspace, f"speckle-forest-{i}", (disp.size,), np.int32)
                     for i in range(2))
     first = np.empty(height, np.int64)
-    limit = np.array([max_diff], np.float64)
-    work = disp.size * SPECKLE_WORK
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)
-
     run = native.entry("filters", ("speckle",))
     none = np.empty(0, np.int64)
 
     def step(number, i, joins=none):  # see jit/filters.py, speckle
-        rows = [np.empty(width, np.int32) for _ in range(2)]
-        return run(disp=disp, small=small, parent=parent, size=size, first=first,
-                   here=rows[0], above=rows[1], max_diff=limit, edges=joins, step=number,
-                   y0=edges[i], y1=edges[i + 1], max_size=int(max_size))
+        return run(**_speckle_arguments(disp, small, parent, size, first, max_size, max_diff,
+                                        number, edges[i], edges[i + 1], joins))
 
     runtime.run_stripes(lambda i, stop: step(0, i), count, count, work)
     if count > 1:
         step(1, 0, edges[1:-1].copy())
-    runtime.run_stripes(lambda i, stop: step(2, i), count, count, work)
+    runtime.run_stripes(lambda i, stop: step(3 if clear else 2, i), count, count, work)
     return small.view(np.bool_)
+
+
+def _speckle_arguments(disp, small, parent, size, first, max_size, max_diff, step, y0, y1,
+                       joins):
+    """The speckle worker's arguments for its ``step`` over rows y0..y1 (its row scratch
+    made here, in the stripe's own thread)."""
+    width = disp.shape[1]
+    return dict(disp=disp, small=small, parent=parent, size=size, first=first,
+                here=np.empty(width, np.int32), above=np.empty(width, np.int32),
+                max_diff=np.array([max_diff], np.float64), edges=joins, step=step, y0=y0,
+                y1=y1, max_size=int(max_size))
+
+
+class SpecklePlan:
+    """speckle_mask of many maps of one shape, made once (a stream's small frames): its
+    scratch, its mask and its two bound calls, run as one stripe in the calling thread.
+    ``plan(disp)`` returns the mask, the plan's own array, overwritten by the next call."""
+
+    def __init__(self, shape, max_size, max_diff):
+        height, width = shape
+        self.small = np.empty(shape, np.uint8)
+        # Shared by the two steps: the forest and each row's first run.
+        shared = (self.small, np.empty(height * width, np.int32),
+                  np.empty(height * width, np.int32), np.empty(height, np.int64))
+        disp = np.zeros(shape, np.float32)
+        run = native.entry("filters", ("speckle",))
+        # The regions, then the marks: alone (step 2) or clearing them too (step 3).
+        self.regions, *marks = [
+            run.bind(**_speckle_arguments(disp, *shared, max_size, max_diff, step, 0, height,
+                                          np.empty(0, np.int64)))
+            for step in (0, 2, 3)]
+        self.marks = dict(zip((False, True), marks, strict=True))
+
+    def __call__(self, disp, clear=False):
+        """The mask of ``disp`` (float32 (H, W), C-contiguous; with clear, its small
+        regions' pixels become NaN)."""
+        mark = self.marks[bool(clear)]
+        for call in (self.regions, mark):
+            call.point("disp", disp)
+            call()
+        return self.small.view(np.bool_)
 
 
 def median_valid(disp, size, threads=None):
@@ -108,10 +188,10 @@ def fill_background(disp, threads=None):
     return out
 
 
-def entries(speckle, median, fill):
-    """The (kernel, variant) entries the 2-D filters load: speckle removal, the median,
-    the background fill, each where True (the left-right check is the engines', see
-    kernels.entries)."""
+def entries(speckle=False, median=False, fill=False, float_map=False):
+    """The (kernel, variant) entries the filters load: speckle removal, the median, the
+    background fill, the integer map's conversion (as_float), each where True (the
+    left-right check is the engines', see kernels.entries)."""
     kinds = [kind for kind, used in (("speckle", speckle), ("median", median),
-                                     ("fill", fill)) if used]
+                                     ("fill", fill), ("float", float_map)) if used]
     return [("filters", (kind,)) for kind in kinds]

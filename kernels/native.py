@@ -58,6 +58,10 @@ class Entry:
         self._values = ctypes.c_int64 * max(len(signature.scalars), 1)
 
     def __call__(self, **arguments):
+        return self.bind(**arguments)()
+
+    def _arrays(self, arguments):
+        """The array arguments in the signature's order, checked; TypeError else."""
         if len(arguments) != len(self._names) or not all(n in arguments for n in self._names):
             self.signature.ordered(arguments, self.key)  # raises, naming what is wrong
         arrays = []
@@ -67,14 +71,49 @@ class Entry:
                 raise TypeError(f"kernel {self.key}: {name} must be C-contiguous {dtype} "
                                 f"with {ndim} dimensions, got {array.dtype} {array.shape}")
             arrays.append(array)
-        scalars = [int(arguments[n]) for n in self.signature.scalars]
-        if self.function is None:  # NUMBA_DISABLE_JIT: the worker is plain Python
-            return int(self.worker(*arrays, np.array(scalars, np.int64)))
-        dims = [d for a in arrays for d in a.shape]
-        status = self.function(self._pointers(*map(_address, arrays)), self._dims(*dims),
-                               self._values(*scalars))
+        return arrays
+
+    def bind(self, **arguments):
+        """A :class:`Bound` call of this entry with these arguments: checked and turned
+        into the entry's pointer, dimension and scalar lists once, for a caller that
+        calls it again and again on the same buffers (a stream's frames)."""
+        return Bound(self, self._arrays(arguments),
+                     [int(arguments[n]) for n in self.signature.scalars])
+
+
+class Bound:
+    """An entry's call with its arguments made once: ``bound()`` runs it, and
+    ``bound.point(name, array)`` points an array argument at another array of the same
+    type and shape (a frame's fresh output).  The arrays stay referenced while bound."""
+
+    def __init__(self, entry, arrays, scalars):
+        self.entry, self.arrays, self.scalars = entry, arrays, scalars
+        self._slot = {name: i for i, (name, _, _) in enumerate(entry._checks)}
+        if entry.function is not None:
+            self._pointers = entry._pointers(*map(_address, arrays))
+            self._dims = entry._dims(*[d for a in arrays for d in a.shape])
+            self._values = entry._values(*scalars)
+
+    def point(self, name, array):
+        """Make array argument ``name`` this array (C-contiguous, of the bound one's
+        dtype and shape: the dimensions were bound); TypeError else."""
+        i = self._slot[name]
+        bound = self.arrays[i]
+        if array.dtype != bound.dtype or array.shape != bound.shape or \
+                not array.flags.c_contiguous:
+            raise TypeError(f"kernel {self.entry.key}: {name} must be C-contiguous "
+                            f"{bound.dtype} {bound.shape}, got {array.dtype} {array.shape}")
+        self.arrays[i] = array
+        if self.entry.function is not None:
+            self._pointers[i] = _address(array)
+
+    def __call__(self):
+        entry = self.entry
+        if entry.function is None:  # NUMBA_DISABLE_JIT: the worker is plain Python
+            return int(entry.worker(*self.arrays, np.array(self.scalars, np.int64)))
+        status = entry.function(self._pointers, self._dims, self._values)
         if failed():
-            raise RuntimeError(f"csw's kernel {self.key} failed: it reached Numba's error "
+            raise RuntimeError(f"csw's kernel {entry.key} failed: it reached Numba's error "
                                "path, which csw's kernels never take; please report it")
         return status
 

@@ -37,6 +37,9 @@ import numpy as np
 # save its codes.
 LARGEST = 8 << 20
 LIMIT = 64 << 20
+# What a kept plan holds a pixel, at most: a census plan's padded image and codes, the
+# speckle filter's forest, and the last outputs its bound calls still point at.
+PLAN_BYTES = 16
 
 
 class Workspace:
@@ -45,6 +48,7 @@ class Workspace:
     def __init__(self, limit=LIMIT, largest=LARGEST):
         self.limit, self.largest = limit, largest
         self._held = {}  # role -> uint8 (n,) buffer
+        self._kept = {}  # role -> (key, object): see keep()
 
     def held(self):
         """Bytes kept."""
@@ -53,6 +57,7 @@ class Workspace:
     def release(self):
         """Keep nothing (arrays already taken stay valid: they hold their buffers)."""
         self._held.clear()
+        self._kept.clear()
 
     def empty(self, role, shape, dtype):
         """An uninitialised array of ``shape`` and ``dtype`` in the buffer kept for
@@ -68,6 +73,28 @@ class Workspace:
             # numpy aligns its buffers for every dtype, so the views below are aligned.
             buffer = self._held[role] = np.empty(nbytes, np.uint8)
         return buffer[:nbytes].view(dtype).reshape(shape)
+
+
+    def plans(self, pixels):
+        """Whether runs on images of ``pixels`` pixels keep a plan here: up to LARGEST
+        bytes at PLAN_BYTES a pixel (a plan keeps its scratch and, bound, its last
+        outputs), so about half a megapixel: the frames whose matches take a few
+        milliseconds, where making the calls again cost up to a fifth of the time."""
+        return pixels * PLAN_BYTES <= self.largest
+
+    def kept(self, role, key):
+        """The object kept for ``role`` (:meth:`keep`) when it was kept under ``key``,
+        else None."""
+        held = self._kept.get(role)
+        return held[1] if held is not None and held[0] == key else None
+
+    def keep(self, role, key, thing):
+        """Keep ``thing`` for ``role`` under ``key`` (replacing what the role held) and
+        return it: a kernel's plan for the next runs like this one (kernels/fast.py).
+        Plans are made only for small images (:meth:`plans`), so they are not counted
+        in the limits."""
+        self._kept[role] = (key, thing)
+        return thing
 
 
 def empty(workspace, role, shape, dtype):

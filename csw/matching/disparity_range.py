@@ -130,10 +130,10 @@ def crowded_end(disparity, settings):
     top = settings["dmax"]
     # Counts, not a copy of the valid pixels: NaN compares False (a stream pays this on
     # every frame).
-    valid = np.count_nonzero(np.isfinite(disparity))
-    if valid == 0:
+    at_end = np.count_nonzero(disparity >= top - 1)
+    if at_end == 0:
         return None
-    share = np.count_nonzero(disparity >= top - 1) / valid
+    share = at_end / np.count_nonzero(np.isfinite(disparity))
     if share < CROWDED_END:
         return None
     advice = ("a larger --dmax" if settings.get("range_source") == "auto" else

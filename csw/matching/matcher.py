@@ -4,6 +4,7 @@ Pairs bigger than memory go through :mod:`csw.scale.tiled`; :func:`csw.matching.
 chooses between the two for files.  Both prepare through :mod:`csw.matching.setup`.
 """
 
+import functools
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -281,6 +282,13 @@ def stream_plan(config, shape, in_flight=None):
     return (1, threads) if work > STREAM_STRIPES_WORK else (threads, 1)
 
 
+@functools.lru_cache(maxsize=64)
+def _zeros(shape):
+    """A read-only float32 map of zeros of ``shape`` taking no memory, shared by the
+    results of that shape (making one costs about 10 us, a stream's frame's share)."""
+    return np.broadcast_to(np.float32(0), shape)
+
+
 def _match(config, left, right, want_confidence, ready=None):
     """One pair with a resolved ``config``.  ready: a dict of set-ups kept between pairs
     (a Matcher's), filled with the ones that don't depend on the pixels."""
@@ -313,7 +321,7 @@ def _match(config, left, right, want_confidence, ready=None):
     seconds = time.perf_counter() - start
     if confidence is None:  # not computed: zeros that take no memory (a fresh 4 bytes a
         # pixel per match made glibc return and fault in the heap's top on every call)
-        confidence = np.broadcast_to(np.float32(0), disparity.shape)
+        confidence = _zeros(disparity.shape)
     settings = dict(prepared.settings)  # each result its own, a kept set-up's unchanged
     note = crowded_end(disparity, settings)
     return Result(disparity, confidence, raw.min_cost, raw.evaluated, raw.candidates,

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import kernels
+from ..kernels import filters, pad
 from .stages import active, needs_extras
 
 
@@ -43,7 +44,9 @@ def entries(args, stages, dtype, confidence=False):
                            confidence or needs_extras(stages, cost), args["dmin"],
                            lr_check=stages.lr_check is not None,
                            census_pattern=stages.census_pattern) + \
-        [entry for stage in active(stages, cost) for entry in stage.entries]
+        [entry for stage in active(stages, cost) for entry in stage.entries] + \
+        filters.entries(float_map=True) + \
+        (pad.entries(dtype) if args["engine"] == "fast" else [])  # its plans' padding
 
 
 def confidence_map(min_cost, second, valid):
@@ -144,14 +147,22 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
                         lr_check=stages.lr_check, workspace=workspace, into=into,
                         **kernel_args)
     invalid = kernels.invalid(kernel_args["dmin"])
+    checks, shifts = active(stages, cost, "check"), active(stages, cost, "disparity")
+    if raw.second_cost is None and not shifts and \
+            all(stage.name == "lr_check" for stage in checks):
+        # Only the left-right check, if any, and no confidence: the float map in one pass.
+        disp = filters.as_float(raw.disparity, raw.lr_valid if checks else None,
+                                invalid, threads=kernel_args.get("threads"),
+                                workspace=workspace)
+        return disp, None, Work(raw.min_cost, raw.evaluated, raw.candidates)
     valid = np.not_equal(raw.disparity, invalid,
                          out=kernels.workspace.empty(workspace, "valid", raw.disparity.shape,
                                                      np.bool_))
     run = _Run(left, raw, stages, kernel_args["window"], rows)
-    for stage in active(stages, cost, "check"):
+    for stage in checks:
         valid &= stage.step(run)
     disp = raw.disparity
-    for stage in active(stages, cost, "disparity"):
+    for stage in shifts:
         disp = disp + stage.step(run)
     disp = disp.astype(np.float32)
     # None when the second-best costs were not computed: no confidence to give.

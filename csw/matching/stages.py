@@ -6,6 +6,7 @@ planner counts for it, the compiled entries it loads, and its step.  The pipelin
 stage is off in the paper's contract (csw.config.params.OFF).
 """
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -129,8 +130,9 @@ def _subpixel(run):
 
 
 def _speckle(disp, stages, workspace, threads):
-    disp[speckle_mask(disp, int(stages.speckle_size), float(stages.speckle_range),
-                      workspace, threads)] = np.nan
+    disp = np.ascontiguousarray(disp, np.float32)  # cleared in place
+    speckle_mask(disp, int(stages.speckle_size), float(stages.speckle_range), workspace,
+                 threads, clear=True)
     return disp
 
 
@@ -190,9 +192,11 @@ BAND_BYTES = {"base": 48, "extras": 32, "colour": 40}
 MAP_BYTES = {"base": 16, "confidence": 8}
 
 
+@functools.lru_cache(maxsize=256)  # a stream asks on every frame; Stages are frozen
 def active(stages, cost, kind=None):
-    """The stages that run with these options (of ``kind``, if given), in order."""
-    return [s for s in STAGES if s.on(stages, cost) and kind in (None, s.kind)]
+    """The stages that run with these options (of ``kind``, if given), in order (a
+    tuple)."""
+    return tuple(s for s in STAGES if s.on(stages, cost) and kind in (None, s.kind))
 
 
 def cost_shaping(stages):

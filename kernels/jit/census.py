@@ -33,9 +33,9 @@ def _make(code):
     @njit(**SERIAL)
     def rows(image_p, codes, planes, places, sc):
         """Codes of rows y0 <= y < y1 for a census window of side ``size``, written into
-        codes edge-padded by ``pad`` columns each side (and rows, which the caller fills)
-        and, with ``reverse``, with the columns reversed: the layouts the engines read
-        (sc: SC).
+        codes edge-padded by ``pad`` columns and rows each side (the stripes holding the
+        first and last rows write the rows beyond them) and, with ``reverse``, with the
+        columns reversed: the layouts the engines read (sc: SC).
 
         image_p: (H + size - 1, W + size - 1), edge-padded by size // 2.  codes: (H + 2p,
         W + 2p) out, p = pad.  places: int64 (n,) the neighbours' places in the window,
@@ -47,7 +47,7 @@ def _make(code):
         size, y0, y1, pad, reverse = sc[SC.size], sc[SC.y0], sc[SC.y1], sc[SC.pad], \
             sc[SC.reverse]
         h = size // 2
-        width = codes.shape[1] - 2 * pad
+        height, width = codes.shape[0] - 2 * pad, codes.shape[1] - 2 * pad
         groups = planes.shape[0]
         for y in range(y0, y1):
             padded = codes[y + pad]
@@ -95,6 +95,16 @@ def _make(code):
                 n = padded.shape[0]
                 for x in range(n // 2):
                     padded[x], padded[n - 1 - x] = padded[n - 1 - x], padded[x]
+            # The rows beyond the image: copies of the first and last rows' codes.
+            # (Element by element: Numba copies a slice assignment's source first.)
+            if y == 0:
+                for r in range(pad):
+                    for x in range(padded.shape[0]):
+                        codes[r, x] = padded[x]
+            if y == height - 1:
+                for r in range(pad):
+                    for x in range(padded.shape[0]):
+                        codes[height + pad + r, x] = padded[x]
         return 0
 
     return rows

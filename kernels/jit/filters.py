@@ -25,10 +25,11 @@ LR = scalar_index(("y0", "y1", "limit", "invalid"))
 SPECKLE = scalar_index(("step", "y0", "y1", "max_size"))
 MEDIAN = scalar_index(("y0", "y1", "size"))
 FILL = scalar_index(("y0", "y1"))
+FLOAT = scalar_index(("y0", "y1", "invalid", "checked"))
 
 
 def spec(kind):
-    """The worker of a filter: "lr", "speckle", "median" or "fill"."""
+    """The worker of a filter: "lr", "speckle", "median", "fill" or "float"."""
     workers = {
         # the left-right check of a stripe of rows
         "lr": (lr_consistent, (arg("disp", I32, 2), arg("right_disp", I32, 2),
@@ -45,6 +46,9 @@ def spec(kind):
         "median": (median_valid, (arg("disp", F32, 2), arg("out", F32, 2),
                                   arg("window", F32, 1)), MEDIAN),
         "fill": (fill_background, (arg("disp", F32, 2), arg("out", F32, 2)), FILL),
+        # disp (H, W), lr_valid (H, W) or a (1, W) dummy unless checked, out (H, W)
+        "float": (as_float, (arg("disp", I32, 2), arg("lr_valid", U8, 2),
+                             arg("out", F32, 2)), FLOAT),
     }
     worker, arrays, scalars = workers[kind]
     return Spec(worker, Signature(arrays, scalars._fields))
@@ -161,12 +165,13 @@ def speckle_join(disp, parent, size, first, here, above, max_diff, edges):
 
 
 @njit(**SERIAL)
-def speckle_mark(disp, small, parent, size, first, max_diff, y0, y1, max_size):
+def speckle_mark(disp, small, parent, size, first, max_diff, y0, y1, max_size, clear):
     """small[y, x] = 1 for the valid pixels of rows y0 <= y < y1 whose region has
     fewer than max_size pixels, once every region is whole: the rows' runs numbered again
     from first, in one pass with the marking (a run's verdict taken where it starts).
     The roots are found without shortening paths, so that stripes may run at once: they
-    only read the forest."""
+    only read the forest.  With clear, those pixels of disp become NaN too, each once
+    read (a stripe reads only its own rows in this step)."""
     limit = max_diff[0]
     for y in range(y0, y1):
         row = disp[y]
@@ -183,22 +188,25 @@ def speckle_mark(disp, small, parent, size, first, max_diff, y0, y1, max_size):
                     root = parent[root]
                 verdict = size[root] < max_size
             small[y, x] = valid and verdict
+            if clear and valid and verdict:
+                row[x] = np.nan
             previous = v
     return 0
 
 
 @njit(**SERIAL)
 def speckle(disp, small, parent, size, first, here, above, max_diff, edges, sc):
-    """The speckle filter's three steps in one entry (one compile, not three): step 0
-    finds a stripe's regions (speckle_regions), 1 joins the stripes (speckle_join), 2
-    marks a stripe's small regions (speckle_mark); sc: SPECKLE."""
+    """The speckle filter's steps in one entry (one compile, not three): step 0 finds a
+    stripe's regions (speckle_regions), 1 joins the stripes (speckle_join), 2 marks a
+    stripe's small regions (speckle_mark), 3 marks them and makes them NaN in disp;
+    sc: SPECKLE."""
     step, y0, y1 = sc[SPECKLE.step], sc[SPECKLE.y0], sc[SPECKLE.y1]
     if step == 0:
         return speckle_regions(disp, parent, size, first, here, above, max_diff, y0, y1)
     if step == 1:
         return speckle_join(disp, parent, size, first, here, above, max_diff, edges)
     return speckle_mark(disp, small, parent, size, first, max_diff, y0, y1,
-                        sc[SPECKLE.max_size])
+                        sc[SPECKLE.max_size], step == 3)
 
 
 @njit(**SERIAL)
@@ -261,4 +269,22 @@ def fill_background(disp, out, sc):
             for i in range(x, end):
                 out[y, i] = value
             x = end
+    return 0
+
+
+@njit(**SERIAL)
+def as_float(disp, lr_valid, out, sc):
+    """out[y, x] = disp[y, x] as float32, or NaN where it is the maps' invalid value or,
+    with checked, lr_valid[y, x] is 0 (the left-right check), for the rows y0 <= y < y1
+    (sc: FLOAT): the pipeline's float map in one pass, where NumPy took four."""
+    width = disp.shape[1]
+    invalid, checked = sc[FLOAT.invalid], sc[FLOAT.checked] != 0
+    nan = np.float32(np.nan)
+    for y in range(sc[FLOAT.y0], sc[FLOAT.y1]):
+        for x in range(width):
+            d = disp[y, x]
+            keep = d != invalid
+            if checked:
+                keep = keep and lr_valid[y, x] != 0
+            out[y, x] = np.float32(d) if keep else nan
     return 0

@@ -64,7 +64,8 @@ def test_matches_through_the_workspace_equal_fresh_ones(small_scene, cost):
     for name in ("disparity", "min_cost", "right_disparity"):  # results own their maps
         array = getattr(got, name)
         assert not any(np.shares_memory(array, buffer) for buffer in ws._held.values())
-    assert ws.held() > 0  # the padded images or census codes: scratch, kept
+    # The padded images or census codes, kept: in a plan (kernels/fast.py) at this size.
+    assert ws.held() > 0 or ws._kept
 
 
 def test_a_caller_lends_the_outputs_it_wants_written_in_place(small_scene):
