@@ -69,7 +69,8 @@ class Result:
     @property
     def invalid_share(self):
         """Share (0..1) of pixels without a disparity."""
-        return float(np.mean(~self.valid)) if self.disparity.size else 0.0
+        size = self.disparity.size  # a count, not a mean of a negated mask (every frame)
+        return (size - np.count_nonzero(self.valid)) / size if size else 0.0
 
 
 def as_gray(image, name):
