@@ -120,10 +120,9 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
         # a plan kept from this thread's last match
         key = (np.shape(left), np.asarray(left).dtype, np.shape(right),
                np.asarray(right).dtype, *options.values())
-        plan = workspace.kept("fast-plan", key)
-        if plan is None and len(key[0]) == 2 and FastPlan.fits(key[0], key[1], options):
-            plan = workspace.keep("fast-plan", key, FastPlan(key[0], key[1], **options))
-        if plan is not None:
+        if len(key[0]) == 2 and FastPlan.fits(key[0], key[1], options):
+            plan = workspace.kept_or_made("fast-plan", key,
+                                          lambda: FastPlan(key[0], key[1], **options))
             return plan(left, right, into)
     left, right, s, rows = validate(left, right, rows=rows, **options)
     height, width = left.shape

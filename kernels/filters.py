@@ -65,12 +65,10 @@ def as_float(disp, lr_valid, invalid, out=None, threads=None, workspace=None):
                      checked=int(checked))
     work = disp.size * FLOAT_WORK
     if workspace is not None and work < runtime.DIRECT_WORK and workspace.plans(disp.size):
-        key = (disp.shape, arguments["invalid"], checked)
-        call = workspace.kept("float-call", key)
-        if call is None:
-            run = native.entry("filters", ("float",))
-            call = workspace.keep("float-call", key,
-                                  run.bind(**arguments, y0=0, y1=disp.shape[0]))
+        call = workspace.kept_or_made(
+            "float-call", (disp.shape, arguments["invalid"], checked),
+            lambda: native.entry("filters", ("float",)).bind(**arguments, y0=0,
+                                                             y1=disp.shape[0]))
         for name in ("disp", "lr_valid", "out"):
             call.point(name, arguments[name])
         call()
@@ -103,9 +101,8 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None, clear=F
     work = disp.size * SPECKLE_WORK
     if workspace is not None and work < runtime.DIRECT_WORK and workspace.plans(disp.size):
         key = (disp.shape, int(max_size), float(max_diff))
-        plan = workspace.kept("speckle-plan", key) or \
-            workspace.keep("speckle-plan", key, SpecklePlan(*key))
-        return plan(disp, clear)
+        return workspace.kept_or_made("speckle-plan", key,
+                                      lambda: SpecklePlan(*key))(disp, clear)
     small = empty(workspace, "speckle-mask", disp.shape, np.uint8)
     parent, size = (empty(workspace, f"speckle-forest-{i}", (disp.size,), np.int32)
                     for i in range(2))
@@ -139,7 +136,8 @@ def _speckle_arguments(disp, small, parent, size, first, max_size, max_diff, ste
 
 class SpecklePlan:
     """speckle_mask of many maps of one shape, made once (a stream's small frames): its
-    scratch, its mask and its two bound calls, run as one stripe in the calling thread.
+    scratch, its mask and its bound calls (the regions, then the marks with or without
+    clearing), run as one stripe in the calling thread.
     ``plan(disp)`` returns the mask, the plan's own array, overwritten by the next call."""
 
     def __init__(self, shape, max_size, max_diff):

@@ -74,7 +74,6 @@ class Workspace:
             buffer = self._held[role] = np.empty(nbytes, np.uint8)
         return buffer[:nbytes].view(dtype).reshape(shape)
 
-
     def plans(self, pixels):
         """Whether runs on images of ``pixels`` pixels keep a plan here: up to LARGEST
         bytes at PLAN_BYTES a pixel (a plan keeps its scratch and, bound, its last
@@ -87,6 +86,11 @@ class Workspace:
         else None."""
         held = self._kept.get(role)
         return held[1] if held is not None and held[0] == key else None
+
+    def kept_or_made(self, role, key, make):
+        """The object kept for ``role`` under ``key``, or ``make()`` kept in its place."""
+        thing = self.kept(role, key)
+        return self.keep(role, key, make()) if thing is None else thing
 
     def keep(self, role, key, thing):
         """Keep ``thing`` for ``role`` under ``key`` (replacing what the role held) and
