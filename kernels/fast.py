@@ -191,6 +191,8 @@ def _arguments(left_p, right_rev, disp, min_cost, maps, lr_valid, evaluated, s, 
     ndisp = s.dmax - s.dmin + 1
     right_width = disp.shape[1] + max(0, -s.dmin)
     second, prev, nxt, right_disp = maps
+    # Hamming costs' ring of the window's rows (kernels/jit/fast.py): w x Wp x D bytes
+    ring = (s.window, left_p.shape[1], ndisp) if s.cost == SHD else (1, 1, 1)
     return dict(left_p=left_p, right_rev=right_rev,
                 col_sums=np.empty((left_p.shape[1], ndisp), acc),
                 row_sums=np.empty(ndisp, acc), claims=np.empty(right_width, np.int32),
@@ -198,7 +200,7 @@ def _arguments(left_p, right_rev, disp, min_cost, maps, lr_valid, evaluated, s, 
                 right_d=np.empty(right_width, np.int16),
                 disp=disp, min_cost=min_cost, second=second, prev=prev, next=nxt,
                 right_disp=right_disp, lr_valid=lr_valid, evaluated=evaluated, stop=stop,
-                window=s.window, dmin=s.dmin, dmax=s.dmax, tau=s.tau, rule=s.rule,
+                ring=np.empty(ring, np.uint8), window=s.window, dmin=s.dmin, dmax=s.dmax, tau=s.tau, rule=s.rule,
                 csw_margin=s.csw_margin, slack=s.slack, y0=y0, y1=y1,
                 never=_never(acc), keep_right=s.right_map, lr_limit=s.lr_check)
 
