@@ -45,6 +45,28 @@ from .workspace import empty, output
 
 COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
 
+# How a pixel picks its least cost with 16-bit sums (kernels/jit/fast.py, select_row):
+# packed keys, sum << 16 | k, whose minimum is the least sum at its smallest k, in one
+# pass of 32-bit lanes; or two passes of 16-bit lanes, the minimum and then its first
+# index.  Which is faster depends on the CPU.  Where 256-bit vectors run whole, keys won
+# at up to 128 disparities (census cones, d 0..127, with the right map: 10.3 ms against
+# 11.5; level at 256).  Where a CPU splits each 256-bit operation into two 128-bit
+# halves (LLVM's names below: AMD's Zen 1, Jaguar and Bulldozer lines), twice the lanes
+# cost twice the time and two passes of narrow lanes won at every range (Zen 1, with
+# the right map: 10.2 ms against 13.4 at 640 wide, d 0..63; 23 against 32 at 1242
+# wide, d 0..127; default preset at 640x480, d 0..63, 1.58x StereoBM's time -> 1.46x).
+KEYED_RANGE = 128
+SPLIT_256_CPUS = frozenset({"znver1", "btver2", "bdver1", "bdver2", "bdver3", "bdver4"})
+
+
+@functools.cache
+def keyed_range():
+    """The largest disparity range whose minimum uses packed keys on this CPU (0: none).
+    Both ways are compiled in every variant, so this is a scalar of the call."""
+    from llvmlite import binding
+
+    return 0 if binding.get_host_cpu_name() in SPLIT_256_CPUS else KEYED_RANGE
+
 
 @functools.cache
 def accumulator_dtype(image_dtype, cost, window):
@@ -200,9 +222,11 @@ def _arguments(left_p, right_rev, disp, min_cost, maps, lr_valid, evaluated, s, 
                 right_d=np.empty(right_width, np.int16),
                 disp=disp, min_cost=min_cost, second=second, prev=prev, next=nxt,
                 right_disp=right_disp, lr_valid=lr_valid, evaluated=evaluated, stop=stop,
-                ring=np.empty(ring, np.uint8), window=s.window, dmin=s.dmin, dmax=s.dmax, tau=s.tau, rule=s.rule,
+                ring=np.empty(ring, np.uint8), window=s.window, dmin=s.dmin, dmax=s.dmax,
+                tau=s.tau, rule=s.rule,
                 csw_margin=s.csw_margin, slack=s.slack, y0=y0, y1=y1,
-                never=_never(acc), keep_right=s.right_map, lr_limit=s.lr_check)
+                never=_never(acc), keep_right=s.right_map, lr_limit=s.lr_check,
+                keyed_range=keyed_range())
 
 
 @functools.cache

@@ -27,16 +27,9 @@ from ..contract import INVALID, NEG_INVALID, RULE_UNIQUE
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import blocked, ctpop, dtype_of, is_distinct, keep_or_take, lr_agrees, stop_requested
 
-# Disparity ranges up to this pick the minimum with packed keys (see select_row), with
-# or without the right map (beyond it, two passes with the map in the second were
-# faster).  With 32-bit keys, a census match of cones at 128 disparities took 10.3 ms
-# keyed against 11.5 in two passes (least of 41); at 256 without the map, 16.1 against
-# 16.5, so the limit stays where 64-bit keys had put it.
-KEYED_RANGE = 128
-
 # The scalars every stripe takes (the entry's record; see kernels/signature.py).
 SCALARS = ("window", "dmin", "dmax", "tau", "rule", "csw_margin", "slack", "y0", "y1",
-           "never", "keep_right", "lr_limit")
+           "never", "keep_right", "lr_limit", "keyed_range")
 SC = scalar_index(SCALARS)
 
 
@@ -168,6 +161,8 @@ def _make(cost, acc, csw, right_map, extras, negative):
         w, dmin, tau, rule = sc[SC.window], sc[SC.dmin], sc[SC.tau], sc[SC.rule]
         csw_margin, slack = sc[SC.csw_margin], sc[SC.slack]
         keep_right, lr_limit = sc[SC.keep_right], sc[SC.lr_limit]
+        # Packed keys pick the minimum up to this range (kernels/fast.py, KEYED_RANGE).
+        packed = keyed and ndisp <= sc[SC.keyed_range]
         shift = -dmin if negative else 0  # the right-pixel arrays' extra front entries
         if csw:
             claims_rev[:] = -1
@@ -232,10 +227,11 @@ def _make(cost, acc, csw, right_map, extras, negative):
                 # 16-bit stores, which AVX2 lacks, and LLVM left that loop scalar.
                 best_r = right_best_rev[base:]
                 d_r = right_rev_d[base:]
-                if keyed and ndisp <= KEYED_RANGE:
+                if packed:
                     # One pass: the least of (sum << 16 | k) is the least sum at its
-                    # smallest k.  Faster than two passes for short ranges (fewer loops
-                    # per pixel), slower for long ones (32-bit lanes); 16-bit sums only.
+                    # smallest k.  Fewer loops per pixel than two passes, in lanes twice
+                    # as wide: which wins depends on range and CPU (kernels/fast.py,
+                    # KEYED_RANGE); 16-bit sums only.
                     # The outer uint32 keeps the keys in 32-bit lanes: Numba types the
                     # shift and the | as uint64, and without it the min ran in 64-bit ones.
                     key = np.uint32(0xFFFFFFFF)
@@ -245,12 +241,6 @@ def _make(cost, acc, csw, right_map, extras, negative):
                                                  np.uint32(k)))
                     best = acc(key >> np.uint32(16))
                     first = np.int16(key & np.uint32(0xFFFF)) if n > lo else none
-                    if right_map:  # a pass of its own
-                        for k in range(lo, n):
-                            v = row_sums[k]
-                            b = best_r[k]
-                            d_r[k] = keep_or_take(d_r[k], k, v < b)
-                            best_r[k] = min(v, b)
                 else:
                     for k in range(lo, n):
                         row_sums[k] = row_sums[k] + add[k] - sub[k]
@@ -266,6 +256,14 @@ def _make(cost, acc, csw, right_map, extras, negative):
                         for k in range(lo, n):
                             first = min(first, np.int16(k) if row_sums[k] == best
                                         else none)
+                if packed and right_map:
+                    # The right map's pass of its own, outside the branch: inside it,
+                    # LLVM left the other way's fused pass scalar (2.7x slower).
+                    for k in range(lo, n):
+                        v = row_sums[k]
+                        b = best_r[k]
+                        d_r[k] = keep_or_take(d_r[k], k, v < b)
+                        best_r[k] = min(v, b)
             for k in range(n, ndisp):  # not candidates yet (d > x), needed further right
                 # An unsigned index: Numba wraps a signed one that may be negative (it
                 # can't tell that n >= 0), which kept this loop scalar.  It runs on the

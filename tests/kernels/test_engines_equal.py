@@ -11,6 +11,7 @@ import oracle
 from csw import kernels
 from csw.config.tau import paper_tau
 from csw.data import datasets as D
+from csw.kernels import fast as fast_engine
 
 
 def assert_engines_equal(left, right, **options):
@@ -76,13 +77,15 @@ def test_wrapping_uint16_sums_stay_exact_at_the_limit():
     assert result.min_cost.max() > 10000
 
 
+@pytest.mark.parametrize("keyed_range", [0, fast_engine.KEYED_RANGE])
 @pytest.mark.parametrize("ndisp", [40, 100, 200])
 @pytest.mark.parametrize("cost", ["sad", "census"])
-def test_every_map_equal_across_the_selection_paths(ndisp, cost):
-    """The fast engine picks the minimum in one of two ways by range (packed keys up to
-    128 disparities, else two passes, the right map beside either: see KEYED_RANGE in
-    kernels/jit/fast.py); every map of each equals the window engine's on ranges that
-    take each way, with and without CSW."""
+def test_every_map_equal_across_the_selection_paths(ndisp, cost, keyed_range, monkeypatch):
+    """The fast engine picks the minimum in one of two ways (packed keys up to a range
+    that depends on the CPU, else two passes, the right map beside either: see
+    KEYED_RANGE in kernels/fast.py); every map of each equals the window engine's on
+    ranges that take each way, with and without CSW, whichever way this CPU prefers."""
+    monkeypatch.setattr(fast_engine, "keyed_range", lambda: keyed_range)
     rng = np.random.default_rng(ndisp)
     left = rng.integers(0, 4, (12, ndisp + 60)).astype(np.uint8)  # few levels: ties
     right = np.roll(left, -ndisp // 3, axis=1) ^ (rng.random(left.shape) < 0.1)
