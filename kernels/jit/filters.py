@@ -141,10 +141,16 @@ def speckle_regions(disp, parent, size, first, here, above, max_diff, y0, y1):
         next_run = _row_runs(disp, y, limit, here, next_run)
         for run in range(first[y], next_run):
             parent[run] = run
-            size[run] = 0
-        for x in range(width):  # the row's runs, whole, before any of them is joined
-            if here[x] >= 0:
-                size[here[x]] += 1
+        # The row's runs' sizes, whole, before any of them is joined: a run is a
+        # stretch of x, so its size is written at each of its pixels, the last time
+        # whole (a count, size[run] += 1, waited on its own store at every pixel).
+        start = 0
+        for x in range(width):
+            run = here[x]
+            if run >= 0:
+                if x == 0 or here[x - 1] != run:
+                    start = x
+                size[run] = x - start + 1
         if y > y0:
             _join_rows(disp, y, limit, here, above, parent, size)
         here, above = above, here
