@@ -10,7 +10,7 @@ from video_fixtures import damage_jpeg_frame, write_frames
 import csw
 from csw.data.synth import render, write_sequence
 from csw.io.video import VideoError, VideoReader, write_video
-from csw.scale.stream import disparity_colours, match_video, video_frames
+from csw.scale.stream import DisparityColours, disparity_colours, match_video, video_frames
 
 av = pytest.importorskip("av")  # in the test extras: skipped only outside them
 
@@ -183,6 +183,18 @@ def test_disparity_colours_are_the_pictures_turbo():
     assert rgba.shape == (2, 3, 4) and (rgba[..., 3] == 255).all()
     np.testing.assert_allclose(rgba[..., :3], colour(disparity, 0, 15), atol=1)
     assert (rgba[0, 2, :3] == 0).all()
+
+
+def test_a_stream_of_colours_reuses_its_arrays_and_equals_fresh_ones():
+    rng = np.random.default_rng(4)
+    colours = DisparityColours()
+    for shape, high in (((6, 9), 15), ((6, 9), 31), ((4, 5), 15)):  # a new size: new arrays
+        disparity = (rng.random(shape) * (high + 4) - 2).astype(np.float32)
+        disparity[rng.random(shape) < 0.2] = np.nan
+        kept = colours(disparity, 0, high)
+        np.testing.assert_array_equal(kept, disparity_colours(disparity, 0, high))
+    assert colours(disparity, 0, 15) is not colours(disparity, 0, 15)  # views ...
+    assert np.shares_memory(colours(disparity, 0, 15), colours(disparity, 0, 15))  # of one
 
 
 def test_outputs_must_not_land_on_an_input(tmp_path):
