@@ -3,7 +3,8 @@ window, after OpenCV's stereobm.cpp (see kernels/fast.py for the layout and the 
 
   column sums   V[j, k] = sum over the w window rows of psi(L[., j], R[., j - d]),
                 d = dmin + k, for padded column j; moved down one row by adding the
-                entering row and subtracting the leaving one (the "_sub" row).
+                entering row and subtracting the leaving one (the "_sub" row, or, for
+                Hamming costs, its costs kept in a ring of the window's rows).
   row sums      H[k] = sum over b < w of V[x + b, k]: the cost C(y, x, d), moved right
                 one pixel by adding V[x + w - 1] and subtracting V[x - 1].
 
