@@ -71,7 +71,8 @@ def _make(cost, acc, csw, right_map, extras, negative):
     # most of a census match's column work (AVX2 has no vector popcount).  With 32-bit
     # codes the column update took 10.1 ms instead of 15.4 at 640x480, d 0..63, and
     # 71 instead of 111 at 1920 wide, d 0..255, where the ring is 4.4 MB.  SAD's
-    # difference costs less than the byte stored and loaded: 18 ms against 6.8 there.
+    # difference costs less than the byte stored and loaded: a ring took 18 ms against
+    # 6.8 at 640x480, d 0..63.
     ringed = cost == "shd"
     invalid = NEG_INVALID if negative else INVALID
 
