@@ -25,7 +25,7 @@ import functools
 
 import numpy as np
 
-from . import native, runtime
+from . import native, runtime, store
 from .census import CensusPlan, census_transform, fits_one_stripe
 from .contract import (
     CENSUS,
@@ -61,11 +61,10 @@ SPLIT_256_CPUS = frozenset({"znver1", "btver2", "bdver1", "bdver2", "bdver3", "b
 
 @functools.cache
 def keyed_range():
-    """The largest disparity range whose minimum uses packed keys on this CPU (0: none).
-    Both ways are compiled in every variant, so this is a scalar of the call."""
-    from llvmlite import binding
-
-    return 0 if binding.get_host_cpu_name() in SPLIT_256_CPUS else KEYED_RANGE
+    """The largest disparity range whose minimum uses packed keys on the CPU the kernels
+    are compiled for (0: none).  Both ways are compiled in every variant, so this is a
+    scalar of the call."""
+    return 0 if store.target_cpu() in SPLIT_256_CPUS else KEYED_RANGE
 
 
 @functools.cache

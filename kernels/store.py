@@ -38,6 +38,17 @@ def cache_dir():
 _FINGERPRINT = {}
 
 
+def target_cpu():
+    """The CPU the kernels are compiled for, as LLVM names it (znver1, skylake-avx512 ...):
+    Numba's NUMBA_CPU_NAME when set to one, else this host's."""
+    named = os.environ.get("NUMBA_CPU_NAME", "")
+    if named and named != "host":
+        return named
+    import llvmlite.binding as llvm
+
+    return llvm.get_host_cpu_name()
+
+
 def _fingerprint():
     """A name for everything the compiled code depends on: the kernel sources, Python,
     llvmlite (which fixes Numba's version), the CPU and Numba's CPU settings."""

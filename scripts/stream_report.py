@@ -34,10 +34,12 @@ ROUNDS = 5
 
 
 def llvm_cpu():
-    """The CPU as LLVM names it (znver1, znver3, skylake-avx512 ...): hosts that report
-    one model name differ in vector width, which moves every ratio here."""
-    from llvmlite import binding
-    return binding.get_host_cpu_name()
+    """The CPU the kernels are compiled for, as LLVM names it (znver1, znver3,
+    skylake-avx512 ...): hosts that report one model name differ in vector width, which
+    moves every ratio here."""
+    from csw.kernels.store import target_cpu
+
+    return target_cpu()
 
 
 def spread(values, digits=2):

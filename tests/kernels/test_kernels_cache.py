@@ -255,3 +255,15 @@ def test_a_worker_that_needs_a_numba_helper_on_its_way_is_refused(tmp_path):
                                   "numba_attempt_nocopy_reshape")
     assert "\n" not in done.stdout.strip()
     assert not list(tmp_path.iterdir())
+
+
+def test_the_target_cpu_is_numbas_setting_when_named(monkeypatch):
+    import llvmlite.binding as llvm
+
+    from csw.kernels.store import target_cpu
+
+    monkeypatch.setenv("NUMBA_CPU_NAME", "generic")
+    assert target_cpu() == "generic"
+    for unnamed in ("host", ""):
+        monkeypatch.setenv("NUMBA_CPU_NAME", unnamed)
+        assert target_cpu() == llvm.get_host_cpu_name()
