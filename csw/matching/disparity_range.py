@@ -71,10 +71,21 @@ def factor(width):
 
 def shrink(image, f):
     """The box average of f x f blocks (the image cropped to whole blocks), uint8/uint16
-    as given, rounded."""
+    as given, rounded half to even; f a power of two.
+
+    The block sums are integers added 2 x 2 at a time, in a type that holds them: numpy's
+    mean over the blocks' axes took 2.2 ms at 640x480 (f 4) against 0.5, which a stream
+    finding its range on every frame pays twice a frame."""
     height, width = (image.shape[0] // f) * f, (image.shape[1] // f) * f
-    blocks = image[:height, :width].reshape(height // f, f, width // f, f)
-    return np.round(blocks.mean(axis=(1, 3))).astype(image.dtype)
+    top = int(np.iinfo(image.dtype).max) * f * f
+    total = image[:height, :width].astype(np.uint16 if top < 2 ** 16 else np.uint32
+                                          if top < 2 ** 32 else np.uint64)
+    for _ in range(f.bit_length() - 1):
+        total = total[0::2, 0::2] + total[1::2, 0::2] + total[0::2, 1::2] + total[1::2, 1::2]
+    count = f * f
+    quotient, remainder = np.divmod(total, count)
+    up = (2 * remainder > count) | ((2 * remainder == count) & (quotient % 2 == 1))
+    return (quotient + up).astype(image.dtype)
 
 
 def coarse_config(small_width, f, config):

@@ -87,3 +87,19 @@ def test_dmin_auto_fits_every_dataset(data_dir, name):
     s = csw.match(pair.left, pair.right, dmin="auto", dmax="auto").settings
     gt = np.where(pair.gt > 0, pair.gt, np.nan)  # 0 is "unknown" in the older sets
     assert _dmin_bound_holds(s["dmin"], gt, s["dmin"], s["dmax"]), s
+
+
+@pytest.mark.parametrize("dtype, f, shape", [
+    (np.uint8, 2, (241, 323)), (np.uint8, 4, (480, 640)), (np.uint8, 32, (70, 5000)),
+    (np.uint16, 8, (375, 1242)), (np.uint16, 2, (9, 7))])
+def test_shrink_is_the_rounded_box_average(dtype, f, shape):
+    from csw.matching.disparity_range import shrink
+
+    rng = np.random.default_rng(f)
+    image = rng.integers(0, np.iinfo(dtype).max + 1, shape, dtype=dtype)
+    image[:f, :f] = [[1, 2] * (f // 2)] * f  # a block whose mean is a half: to even, 2
+    h, w = shape[0] // f * f, shape[1] // f * f
+    mean = image[:h, :w].reshape(h // f, f, w // f, f).mean(axis=(1, 3))
+    small = shrink(image, f)
+    assert small.dtype == dtype and small[0, 0] == 2
+    assert np.array_equal(small, np.round(mean).astype(dtype))
