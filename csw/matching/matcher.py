@@ -153,18 +153,25 @@ class Matcher:
     pixels: the images' type whose kernels are loaded now (np.uint8 by default; a pair of
     another type loads its own on first use; None: none now).  A range "auto" is found
     from the first pair and kept for the next ones (``settings["range_source"]`` says
-    so).  The set-up of a frame size (its checks, its kernels, its arguments) is made on
-    its first pair and kept, unless it depends on the pixels (tau auto with CSW samples
-    each pair), so that the next pairs pay only their matching.
+    so), as a stream from one rig wants; with ``keep_range=False`` each pair finds its
+    own, as :func:`match` does (a drive whose depths change; a coarse match of the pair
+    shrunk, which at 640x480 adds about a tenth to a frame's time, and at 320x240
+    doubles it).  The set-up of a frame size (its checks, its kernels, its
+    arguments) is made on its first pair and kept, unless it depends on the pixels (tau
+    auto with CSW samples each pair, a range found on each pair), so that the next pairs
+    pay only their matching.
 
     One Matcher may be used from several threads at once: each thread matches with
     scratch of its own (kernels/workspace.py), and the matcher keeps nothing of a pair
     but that first range and the set-ups.
     """
 
-    def __init__(self, pixels=np.uint8, config=None, **options):
+    def __init__(self, pixels=np.uint8, config=None, keep_range=True, **options):
         if config is not None and options:
             raise TypeError("give a Matcher its options or a resolved config, not both")
+        if not isinstance(keep_range, bool):
+            raise TypeError(f"keep_range must be True or False, got {keep_range!r}")
+        self.keep_range = keep_range
         # TypeError / ValueError now.  config: a csw.config.params.Config resolved
         # already (csw's own callers, which resolve before they read any file).
         self.config = resolve(**options) if config is None else config
@@ -180,7 +187,7 @@ class Matcher:
 
     def _match_with(self, config, left, right, want_confidence):
         result = _match(config, left, right, want_confidence, self._ready)
-        if self._found is None and not config.range_known:
+        if self._found is None and not config.range_known and self.keep_range:
             s = result.settings
             self._found = config.replace(dmin=s["dmin"], dmax=s["dmax"],
                                          range_source="auto (from the first pair)")
@@ -198,7 +205,8 @@ class Matcher:
         errors: "raise" (a frame's error ends the stream) or "yield" (the frame's
             exception is yielded in its place and the stream goes on).
 
-        The first frame is matched alone (it finds a range "auto" for the rest).  A
+        The first frame is matched alone (it finds a range "auto" for the rest, unless
+        the matcher was made with ``keep_range=False``).  A
         result equals :meth:`match`'s on the same pair bit for bit; its settings'
         ``threads`` says how many threads its frame used.  Frames are read from
         ``pairs`` in this thread, at most ``in_flight`` ahead of the one yielded; on a
@@ -218,7 +226,11 @@ class Matcher:
             return
         config = self._found or self.config
         shape = first.shape if isinstance(first, Result) else None
-        frames, threads = stream_plan(config, shape, in_flight)
+        planned = config  # a range found on each frame: planned with the first one's
+        if shape is not None and not config.range_known:
+            planned = config.replace(dmin=first.settings["dmin"], dmax=first.settings["dmax"])
+        frames, threads = stream_plan(planned, shape if planned.range_known else None,
+                                      in_flight)
         yield first
         frame_config = config.replace(threads=threads)
         if frames == 1:

@@ -158,7 +158,8 @@ class DisparityColours:
 
 def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
                 overwrite=False, preview_video=None, preview_sbs=False, summary=None,
-                progress=True, in_flight=None, config=None, **match_options):
+                progress=True, in_flight=None, keep_range=True, config=None,
+                **match_options):
     """Match every frame of two videos (frames paired by index), or of one side-by-side
     video (``sbs``: the left half is the left camera).
 
@@ -180,6 +181,10 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
         A progress bar on stderr with frames a second; or ``progress(done, total)``.
     in_flight : int, optional
         Frames matched at once (see :meth:`csw.Matcher.stream`).
+    keep_range : bool
+        With a range "auto": find it on the first frame and keep it (True), or find it
+        on every frame (False: each entry of the summary gives its frame's range, and
+        the preview's colours span the widest range seen so far).
     **match_options
         As for :func:`csw.match`; or ``config``, a csw.config.params.Config.
 
@@ -241,9 +246,10 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
         except OSError as exc:
             raise OptionError("output_dir", f"can't create the folder {out_dir} "
                                             f"({exc.strerror or exc})") from None
-    matcher = Matcher(config=config)
+    matcher = Matcher(config=config, keep_range=keep_range)
     run = _Run(out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
-               info["rate"] or 30.0, progress, info["frames"] or None)
+               info["rate"] or 30.0, progress, info["frames"] or None,
+               each_range=not (keep_range or config.range_known))
     try:
         run.go(matcher, frames, in_flight)
     except VideoError as exc:  # the stream can't go on (a size changed, a damaged file):
@@ -262,8 +268,9 @@ class _Run:
     summary's entries kept on disk (csw.scale.batch.PairLog), latencies in an array."""
 
     def __init__(self, out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
-                 rate, progress, total=None):
+                 rate, progress, total=None, each_range=False):
         self.out_dir, self.suffix, self.overwrite = out_dir, suffix, overwrite
+        self.each_range = each_range  # every frame finds its own range
         self.summary, self.preview_sbs = summary, preview_sbs
         self.preview_path, self.rate, self.progress = preview_video, rate, progress
         self.preview = None
@@ -314,19 +321,28 @@ class _Run:
         if self.size is None:
             self.size = [int(result.shape[1]), int(result.shape[0])]
             self.range = [s["dmin"], s["dmax"]]
-            if self.out_dir is not None:
+            if self.out_dir is not None and not self.each_range:  # every map: stop now
                 check_range(f"map{self.suffix}", s["dmax"], s["dmin"])
-        status = "ok"
+        else:  # a range found on each frame: the summary's, and the colours', grows
+            self.range = [min(self.range[0], s["dmin"]), max(self.range[1], s["dmax"])]
+        status, error = "ok", None
         if self.out_dir is not None:
             path = self.map_path(frame.index)
             if path.exists() and not self.overwrite:
                 status = "skipped"  # matched only for the preview; the map stays
             else:
-                write_disparity(path, result.disparity)
+                try:
+                    write_disparity(path, result.disparity)
+                except ValueError as exc:  # a frame's own range more than the format holds
+                    status, error = "failed", str(exc)
         if self.preview_path is not None:
             self.write_preview(frame, result.disparity)
-        self.add(frame.index, status, seconds=result.seconds,
-                 invalid=100.0 * result.invalid_share, notes=list(result.notes))
+        own = {"range": [s["dmin"], s["dmax"]]} if self.each_range else {}
+        if error is not None:
+            self.add(frame.index, status, error=error, **own)
+        else:
+            self.add(frame.index, status, seconds=result.seconds,
+                     invalid=100.0 * result.invalid_share, notes=list(result.notes), **own)
 
     def write_preview(self, frame, disparity):
         if disparity is None:  # a lost frame: black, once the video's size is known

@@ -139,3 +139,42 @@ def test_ctrl_c_keeps_the_frames_written_and_marks_the_summary(tmp_path):
     temporaries = [p for folder in (tmp_path, tmp_path / "maps")
                    for p in os.listdir(folder) if p.startswith(".csw-tmp")]
     assert temporaries == []
+
+
+def two_scene_sbs(path, width=192, height=96):
+    """A side-by-side MJPEG video cutting between a shallow scene (d up to 12) and a deep
+    one (up to 48), two frames each."""
+    shallow, deep = (np.concatenate(render(width, height, dmax, 5)[:2], axis=1)
+                     for dmax in (12, 48))
+    return write_frames(path, [shallow, shallow, deep, deep])
+
+
+def test_range_each_frame_finds_every_frames_own_range(tmp_path):
+    video = two_scene_sbs(tmp_path / "v.avi")
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "kept")
+    assert result.exit_code == 0, result.output
+    kept = json.loads((tmp_path / "kept" / "summary.json").read_text())
+    assert all("range" not in entry for entry in kept["pairs"])  # the first frame's, kept
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "each", "--range-each-frame",
+                    "--preview-video", tmp_path / "each.mp4")
+    assert result.exit_code == 0, result.output
+    assert "found on each frame" in result.output
+    each = json.loads((tmp_path / "each" / "summary.json").read_text())
+    ranges = [entry["range"] for entry in sorted(each["pairs"], key=lambda e: e["frame"])]
+    assert ranges[0] == ranges[1] == kept["range"] and ranges[2] == ranges[3]
+    assert ranges[2][1] > ranges[0][1] + 20  # the deep scene's own, far past the first's
+    assert each["range"] == [ranges[0][0], ranges[2][1]]  # the widest, the preview's scale
+    # The deep frames' maps reach past the range kept from the first frame.
+    frames = [tmp_path / "each" / f"{i:06d}.pfm" for i in range(4)]
+    assert np.nanmax(csw_read(frames[2])) > ranges[0][1] + 20
+    assert np.nanmax(csw_read(tmp_path / "kept" / "000002.pfm")) <= ranges[0][1]
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "x", "--dmax", 20,
+                    "--range-each-frame")
+    assert result.exit_code == 2 and "for a range 'auto'" in result.output
+    assert not (tmp_path / "x").exists()
+
+
+def csw_read(path):
+    from csw.io.formats import read_disparity
+
+    return read_disparity(path)

@@ -65,3 +65,21 @@ def test_an_auto_range_is_found_on_the_first_pair_and_kept():
     assert (second.settings["dmin"], second.settings["dmax"]) == \
         (first.settings["dmin"], first.settings["dmax"])
     assert second.settings["range_source"] == "auto (from the first pair)"
+
+
+def test_keep_range_false_finds_each_pairs_own_range():
+    shallow = csw.synthetic_pair(320, 200, dmax=12, seed=2)[:2]
+    deep = csw.synthetic_pair(320, 200, dmax=48, seed=3)[:2]
+    matcher = csw.Matcher(dmax="auto", keep_range=False)
+    results = [matcher.match(*shallow), matcher.match(*deep)]
+    streamed = list(matcher.stream([shallow, deep, shallow]))
+    for result, pair in zip(results + streamed, [shallow, deep, shallow, deep, shallow],
+                            strict=True):
+        alone = csw.match(*pair, dmax="auto")
+        assert result.settings["range_source"] == "auto"
+        assert (result.settings["dmin"], result.settings["dmax"]) == \
+            (alone.settings["dmin"], alone.settings["dmax"])
+        assert np.array_equal(result.disparity, alone.disparity, equal_nan=True)
+    assert results[1].settings["dmax"] > results[0].settings["dmax"] + 20
+    with pytest.raises(TypeError, match="keep_range"):
+        csw.Matcher(keep_range="no")
