@@ -178,3 +178,18 @@ def csw_read(path):
     from csw.io.formats import read_disparity
 
     return read_disparity(path)
+
+
+def test_a_frame_whose_own_range_its_format_cant_hold_fails_alone(tmp_path):
+    shallow = render(192, 96, 12, 5)[:2]
+    behind = (shallow[0], np.roll(shallow[1], 10, axis=1))  # disparities 10 lower: < 0
+    frames = [np.concatenate(pair, axis=1) for pair in (shallow, behind, shallow)]
+    video = write_frames(tmp_path / "v.avi", frames)
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--suffix", ".png",
+                    "--dmin", "auto", "--range-each-frame")
+    assert result.exit_code == 1, result.output
+    assert "2 matched, 0 skipped, 1 failed" in result.output
+    assert "failed: frame 1: " in result.output and "negative" in result.output
+    assert "Traceback" not in result.output
+    assert sorted(os.listdir(tmp_path / "maps")) == ["000000.png", "000002.png",
+                                                     "summary.json"]
