@@ -279,6 +279,18 @@ def whole_process(folder, rounds=3, frames=300):
     return {"frames": frames, "walls": walls, "ratios": ratios}
 
 
+def stream_rows(rows, target, met):
+    """The lines of a frames-a-second table (stream_table's rows); target, met: the
+    headers of its last two columns."""
+    out = ["| frames | d | threads | csw frames/s | StereoBM frames/s | csw / BM: min / "
+           f"median / max | {target} | {met} |", "|---|---|---|---|---|---|---|---|"]
+    for row in rows:
+        out.append(f"| {row['size']} | {row['range']} | {row['threads']} | "
+                   f"{row['csw_fps']:.0f} | {row['bm_fps']:.0f} | {spread(row['ratios'])} | "
+                   f"≥ {row['target']} | {'yes' if row['met'] else 'no'} |")
+    return out
+
+
 def markdown(data):
     out = [
         "# Streams: csw.Matcher.stream and `csw match` on video, against OpenCV", "",
@@ -296,26 +308,15 @@ def markdown(data):
         "csw: `csw.Matcher(dmax=D, threads=T).stream(pairs)` (frames side by side, one "
         "per thread, below the stripe switch).  StereoBM: `compute` per frame after "
         "`cv2.setNumThreads(T)`, 9x9, its defaults.", "",
-        "| frames | d | threads | csw frames/s | StereoBM frames/s | csw / BM: min / median "
-        "/ max | target | met in every round |", "|---|---|---|---|---|---|---|---|"]
-    for row in data["streams"]:
-        out.append(f"| {row['size']} | {row['range']} | {row['threads']} | "
-                   f"{row['csw_fps']:.0f} | {row['bm_fps']:.0f} | {spread(row['ratios'])} | "
-                   f"≥ {row['target']} | {'yes' if row['met'] else 'no'} |")
+    ] + stream_rows(data["streams"], "target", "met in every round")
     if data.get("streams_raw"):
         out += ["", "## The same streams with the raw preset (SAD, no stage)", "",
                 "`csw.Matcher(dmax=D, threads=T, preset=\"raw\")`: the contract's "
                 "winner-take-all map, without the default's census, left-right check and "
                 "speckle filter (StereoBM's defaults have no left-right check or speckle "
-                "filter either).  The targets are the default preset's, for reference.", "",
-                "| frames | d | threads | csw frames/s | StereoBM frames/s | csw / BM: min / "
-                "median / max | the default's target | at it in every round |",
-                "|---|---|---|---|---|---|---|---|"]
-        for row in data["streams_raw"]:
-            out.append(f"| {row['size']} | {row['range']} | {row['threads']} | "
-                       f"{row['csw_fps']:.0f} | {row['bm_fps']:.0f} | "
-                       f"{spread(row['ratios'])} | ≥ {row['target']} | "
-                       f"{'yes' if row['met'] else 'no'} |")
+                "filter either).  The targets are the default preset's, for reference.", ""
+                ] + stream_rows(data["streams_raw"], "the default's target",
+                                "at it in every round")
     if data.get("stages"):
         names = [name for name, _ in STAGE_STEPS + FLOOR_STEPS
                  if name in data["stages"][0]["ms"]]  # an older stream.json has no floor
@@ -463,7 +464,7 @@ def notes(data):
             f"StereoBM's time with SAD and {ms[1]:.2f}x with the census; the left-right "
             f"check brings it to {ms[2]:.2f}x and the speckle filter to {ms[3]:.2f}x, the "
             "default (StereoBM's defaults make neither).")
-        if len(FLOOR_STEPS) and FLOOR_STEPS[0][0] in row["ms"]:
+        if FLOOR_STEPS[0][0] in row["ms"]:  # an older stream.json has no floor
             floor = row["ms"][FLOOR_STEPS[0][0]] / row["ms"]["StereoBM"]
             lines.append(
                 f"  Even with the census costing no more than SAD, the left-right check and "
