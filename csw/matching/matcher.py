@@ -229,8 +229,7 @@ class Matcher:
         planned = config  # a range found on each frame: planned with the first one's
         if shape is not None and not config.range_known:
             planned = config.replace(dmin=first.settings["dmin"], dmax=first.settings["dmax"])
-        frames, threads = stream_plan(planned, shape if planned.range_known else None,
-                                      in_flight)
+        frames, threads = stream_plan(planned, shape, in_flight)
         yield first
         frame_config = config.replace(threads=threads)
         if frames == 1:

@@ -337,12 +337,12 @@ class _Run:
                     status, error = "failed", str(exc)
         if self.preview_path is not None:
             self.write_preview(frame, result.disparity)
-        own = {"range": [s["dmin"], s["dmax"]]} if self.each_range else {}
-        if error is not None:
-            self.add(frame.index, status, error=error, **own)
-        else:
-            self.add(frame.index, status, seconds=result.seconds,
-                     invalid=100.0 * result.invalid_share, notes=list(result.notes), **own)
+        fields = {"error": error} if error is not None else {
+            "seconds": result.seconds, "invalid": 100.0 * result.invalid_share,
+            "notes": list(result.notes)}
+        if self.each_range:
+            fields["range"] = [s["dmin"], s["dmax"]]
+        self.add(frame.index, status, **fields)
 
     def write_preview(self, frame, disparity):
         if disparity is None:  # a lost frame: black, once the video's size is known
