@@ -258,3 +258,106 @@ def remap_bilinear(image, map_x, map_y):
             out[y, x] = (upper * (32 - wy) + lower * wy + 512) // 1024
             valid[y, x] = True
     return out, valid
+
+
+# Semi-global matching, brute force over the whole volume (see kernels/jit/sgm.py).
+
+SGM_PATHS = {4: ((0, 1), (0, -1), (1, 0), (-1, 0)),
+             8: ((0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))}
+
+
+def sgm_volume(left, right, window, dmin, dmax, cost, census_window=5,
+               census_pattern="dense"):
+    """C (H, W, D) as Python-int-exact int64: the contract's window cost where the right
+    pixel x - d is in the image, else the largest cost a window can have."""
+    pixels = np.asarray(left).dtype
+    if cost == "census":
+        bits = len([1 for a in range(census_window) for b in range(census_window)
+                    if (a, b) != (census_window // 2,) * 2 and (
+                        census_pattern == "dense" or
+                        ((a - census_window // 2) % 2 == 0 and (b - census_window // 2) % 2 == 0)
+                        or max(abs(a - census_window // 2), abs(b - census_window // 2)) == 1)])
+        left = census(left, census_window, census_pattern)
+        right = census(right, census_window, census_pattern)
+        per_pixel = bits
+    else:
+        top = int(np.iinfo(pixels).max)
+        per_pixel = {"sad": top, "ssd": top * top, "shd": np.iinfo(pixels).bits}[cost]
+    cmax = per_pixel * window * window
+    height, width = left.shape
+    ds = list(range(dmin, dmax + 1))
+    volume = np.full((height, width, len(ds)), cmax, np.int64)
+    for y in range(height):
+        for x in range(width):
+            inside = [d for d in ds if 0 <= x - d <= width - 1]
+            for d, c in zip(inside, window_costs(left, right, y, x, inside, window, cost),
+                            strict=True):
+                volume[y, x, d - dmin] = c
+    return volume
+
+
+def sgm_sums(volume, paths, p1, p2):
+    """S (H, W, D) int64: Hirschmueller's L_r summed over the paths, each path starting
+    with L = C at its first pixel inside the image."""
+    height, width, ndisp = volume.shape
+    total = np.zeros_like(volume)
+    for dy, dx in SGM_PATHS[paths]:
+        L = np.zeros_like(volume)
+        ys = range(height) if dy >= 0 else range(height - 1, -1, -1)
+        xs = list(range(width)) if dx >= 0 else list(range(width - 1, -1, -1))
+        for y in ys:
+            for x in xs:
+                py, px = y - dy, x - dx
+                c = volume[y, x]
+                if not (0 <= py < height and 0 <= px < width):
+                    L[y, x] = c
+                    continue
+                before = L[py, px]
+                least = before.min()
+                out = np.empty(ndisp, np.int64)
+                for k in range(ndisp):
+                    options = [before[k], least + p2]
+                    if k > 0:
+                        options.append(before[k - 1] + p1)
+                    if k < ndisp - 1:
+                        options.append(before[k + 1] + p1)
+                    out[k] = c[k] + min(options) - least
+                L[y, x] = out
+        total += L
+    return total
+
+
+def sgm_match(left, right, window, dmin, dmax, cost, paths, p1, p2, census_window=5,
+              census_pattern="dense"):
+    """(disparity int32, min_cost int64, extras) as oracle_match's with ``extras``, the
+    costs being the sums S over the candidates whose right pixel is in the image."""
+    volume = sgm_volume(left, right, window, dmin, dmax, cost, census_window,
+                        census_pattern)
+    total = sgm_sums(volume, paths, p1, p2)
+    height, width, _ = volume.shape
+    invalid = -1 if dmin >= 0 else np.iinfo(np.int32).min
+    disp = np.full((height, width), invalid, np.int32)
+    mins = np.full((height, width), -1, np.int64)
+    more = {k: np.full((height, width), -1, np.int64)
+            for k in ("second_cost", "prev_cost", "next_cost")}
+    more["right_disparity"] = np.full((height, width), invalid, np.int32)
+    for y in range(height):
+        seen = {}
+        for x in range(width):
+            ds = [d for d in range(dmin, dmax + 1) if 0 <= x - d <= width - 1]
+            if not ds:
+                continue
+            costs = [int(total[y, x, d - dmin]) for d in ds]
+            best = min(costs)
+            d_best = ds[costs.index(best)]
+            disp[y, x], mins[y, x] = d_best, best
+            by_d = dict(zip(ds, costs, strict=True))
+            others = [c for d, c in by_d.items() if abs(d - d_best) >= 2]
+            more["second_cost"][y, x] = min(others) if others else -1
+            more["prev_cost"][y, x] = by_d.get(d_best - 1, -1)
+            more["next_cost"][y, x] = by_d.get(d_best + 1, -1)
+            for d, c in by_d.items():
+                if x - d not in seen or c < seen[x - d][0]:
+                    seen[x - d] = (c, d)
+                    more["right_disparity"][y, x - d] = d
+    return disp, mins, more

@@ -31,7 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import kernels
-from ..kernels import filters, pad
+from ..kernels import filters, pad, sgm
+from ..kernels.contract import census_bits
 from .stages import active, needs_extras
 
 
@@ -39,14 +40,39 @@ def entries(args, stages, dtype, confidence=False):
     """The compiled kernel entries (csw.kernels.native) a run of the pipeline with these
     kernel arguments and stages loads, for images of ``dtype``."""
     cost = args["cost"]
-    return kernels.entries(args["engine"], cost, dtype, args["window"],
-                           stages.census_window, args.get("csw", False), False,
-                           confidence or needs_extras(stages, cost), args["dmin"],
-                           lr_check=stages.lr_check is not None,
-                           census_pattern=stages.census_pattern) + \
+    if stages.aggregate == "sgm":
+        compared = compared_dtype(stages, dtype)
+        matching = sgm.entries(cost, compared, args["window"], args["dmin"],
+                               stages.sgm_paths, *penalties(stages, cost, args["window"],
+                                                            compared),
+                               stages.census_window, stages.census_pattern)
+    else:
+        matching = kernels.entries(args["engine"], cost, dtype, args["window"],
+                                   stages.census_window, args.get("csw", False), False,
+                                   confidence or needs_extras(stages, cost), args["dmin"],
+                                   lr_check=stages.lr_check is not None,
+                                   census_pattern=stages.census_pattern)
+    return matching + \
         [entry for stage in active(stages, cost) for entry in stage.entries] + \
         filters.entries(float_map=True) + \
         (pad.entries(dtype) if args["engine"] == "fast" else [])  # its plans' padding
+
+
+def compared_dtype(stages, dtype):
+    """The type of the images the costs compare: the x-Sobel prefilter's are bytes."""
+    return np.dtype(np.uint8) if stages.prefilter == "xsobel" else np.dtype(dtype)
+
+
+def penalties(stages, cost, window, dtype):
+    """Semi-global matching's (P1, P2) for images of ``dtype`` (as compared: see
+    compared_dtype): as given, else scaled to the cost and window
+    (kernels.sgm.default_penalties); a P2 left to default is at least the P1 given."""
+    bits = census_bits(stages.census_window, stages.census_pattern) \
+        if cost == "census" else None
+    p1, p2 = sgm.default_penalties(cost, window, bits, dtype)
+    p1 = p1 if stages.sgm_p1 is None else stages.sgm_p1
+    p2 = max(p2, p1) if stages.sgm_p2 is None else stages.sgm_p2
+    return p1, p2
 
 
 def confidence_map(min_cost, second, valid):
@@ -141,11 +167,15 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
     into = None if workspace is None else {  # the integer maps, used only here
         "disparity": workspace.empty("disparity", shape, np.int32),
         "lr_valid": workspace.empty("lr-valid", shape, np.uint8)}
-    raw = kernels.match(a, b, census_window=stages.census_window,
-                        census_pattern=stages.census_pattern,
-                        extras=confidence or needs_extras(stages, cost),
-                        lr_check=stages.lr_check, workspace=workspace, into=into,
-                        **kernel_args)
+    options = dict(census_window=stages.census_window, census_pattern=stages.census_pattern,
+                   extras=confidence or needs_extras(stages, cost), lr_check=stages.lr_check,
+                   workspace=workspace, into=into)
+    if stages.aggregate == "sgm":
+        p1, p2 = penalties(stages, cost, kernel_args["window"], a.dtype)
+        raw = sgm.match_sgm(a, b, paths=stages.sgm_paths, p1=p1, p2=p2, **options,
+                            **kernel_args)
+    else:
+        raw = kernels.match(a, b, **options, **kernel_args)
     invalid = kernels.invalid(kernel_args["dmin"])
     checks, shifts = active(stages, cost, "check"), active(stages, cost, "disparity")
     if raw.second_cost is None and not shifts and \

@@ -13,7 +13,7 @@ from ..config import params
 from ..config.params import Config, OptionError
 from ..config.tau import resolve_tau, sample_rows
 from . import disparity_range
-from .pipeline import entries
+from .pipeline import compared_dtype, entries, penalties
 from .stages import cost_shaping
 
 
@@ -100,6 +100,9 @@ def set_up(config, shape, dtype, right=None, sample_min_cost=None, make_plan=Non
             plain_min_cost=lambda: sample_min_cost(args, cost_shaping(stages),
                                                    sample_rows(height)))
     settings = dict(config.as_dict(), tau=tau, tau_source=source)
+    if stages.aggregate == "sgm":  # the penalties the kernels take, defaults resolved
+        settings["sgm_p1"], settings["sgm_p2"] = penalties(
+            stages, config.cost, config.window, compared_dtype(stages, dtype))
     return Prepared(config, dict(args, csw=config.csw, tau=tau), settings, compile_s, layout)
 
 
@@ -123,7 +126,8 @@ def preset_entries(presets=None):
     and the luma of colour pairs: what ``csw compile --preset`` puts in the cache."""
     wanted = []
     for preset in presets or params.PRESETS:
-        for csw in (False, True):
+        aggregated = params.PRESETS[preset].get("aggregate", "none") == "sgm"
+        for csw in (False,) if aggregated else (False, True):  # CSW is local matching's
             config = params.resolve(preset=preset, csw=csw)
             for dtype in (np.uint8, np.uint16):
                 wanted += config_entries(config, np.dtype(dtype))
@@ -175,7 +179,9 @@ def documented_entries():
     for stage in FILTER_CHOICES:
         wanted += config_entries(params.resolve(preset="raw", dmax=8, **stage),
                                  np.dtype(np.uint8))
-    from ..kernels import remap  # a raw pair from a rig (csw.camera.rectify)
+    from ..kernels import remap, sgm  # remap: a raw pair from a rig (csw.camera.rectify)
+
+    wanted += [("sgm", v) for v in sgm.variants(LARGEST_WINDOW)]
 
     for dtype in (None, "fixed", np.uint8, np.uint16):
         wanted += remap.entries(dtype)

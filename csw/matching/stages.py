@@ -16,6 +16,9 @@ from ..config.params import OFF_STAGES
 from ..kernels.contract import census_dtype
 from ..kernels.filters import fill_background, median_valid, speckle_mask
 
+# Rows of input a stripe takes beyond its own for semi-global paths (see STAGES).
+SGM_MARGIN = 64
+
 
 def _none(stages):
     return 0
@@ -156,6 +159,14 @@ STAGES = (
     Stage("census", ("census_window", "census_pattern"), "costs",
           on=lambda st, cost: cost == "census",
           input_rows=lambda st: int(st.census_window) // 2, band_bytes=_census_bytes),
+    # Semi-global matching aggregates the costs in the kernels (kernels/sgm.py).  Its
+    # paths cross every row, so a stripe's rows are exact only with the whole image's
+    # beside them: the stripe planner keeps SGM_MARGIN rows each side and
+    # reports/scale.md measures what that leaves different.  Its band's slabs are its
+    # own, within kernels.sgm.BAND_BYTES.
+    Stage("sgm", ("aggregate", "sgm_paths", "sgm_p1", "sgm_p2"), "costs",
+          on=lambda st, cost: st.aggregate == "sgm",
+          input_rows=lambda st: SGM_MARGIN),
     Stage("lr_check", ("lr_check",), "check",
           on=lambda st, cost: st.lr_check is not None, step=_lr_check,
           band_bytes=lambda st: 8),

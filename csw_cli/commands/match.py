@@ -23,6 +23,10 @@ def summary_line(result):
     tau_note = " (auto)" if s["tau_source"] == "auto" else ""
     mode = (f"CSW {s['csw_rule']} tau={tau_label(s['tau'])}{tau_note}" if s["csw"]
             else "plain")
+    engine = f"{s['engine']} engine"
+    if s.get("aggregate") == "sgm":
+        mode = f"SGM {s['sgm_paths']} paths P1 {s['sgm_p1']} P2 {s['sgm_p2']}"
+        engine = "semi-global"
     stripes = f", {result.stripes} stripe(s)" if result.stripes else ""
     notes = ""
     source = s.get("range_source")
@@ -38,7 +42,7 @@ def summary_line(result):
         cost += f" ({s['census_pattern']} {s['census_window']}x{s['census_window']} codes)"
     return (f"{width}x{height} d {s['dmin']}..{s['dmax']} {cost} "
             f"{s['window']}x{s['window']} {mode}, preset {s['preset']} "
-            f"({s['engine']} engine{stripes}): "
+            f"({engine}{stripes}): "
             f"{result.seconds:.3f} s (compile {result.compile_seconds:.2f} s), evaluated "
             f"{100.0 * result.evaluated / max(result.candidates, 1):.1f}% of candidates, "
             f"invalid {100.0 * result.invalid_share:.1f}%{notes}")
@@ -71,6 +75,7 @@ MATCH_HELP = opt.sectioned(
     ("Disparity range", ["dmin", "dmax"]),
     ("Preset and matching cost", ["preset", "cost", "window", "census_window",
                                   "census_pattern"]),
+    ("Semi-global matching", ["aggregate", "sgm_paths", "sgm_p1", "sgm_p2"]),
     ("Pipeline stages (on top of the preset)",
      ["prefilter", "prefilter_cap", "texture_threshold", "lr_check", "uniqueness_ratio",
       "subpixel", "speckle_size", "speckle_range", "median", "fill"]),

@@ -1,0 +1,456 @@
+"""Semi-global matching's workers (see kernels/sgm.py for the entry, the bands and the
+parallel driver).  The definition, exactly (docs/engines.md, "Semi-global matching"):
+
+  C(y, x, k)   the window cost of the contract at d = dmin + k, or cmax (above every
+               real cost) where the right pixel x - d lies outside the image
+  L_r(p, k)    = C(p, k) + min(L_r(p - r, k), L_r(p - r, k +- 1) + P1,
+                               min_j L_r(p - r, j) + P2) - min_j L_r(p - r, j)
+               along each path r; at a path's first pixel L_r(p, k) = C(p, k)
+  S(p, k)      the sum of L_r over the paths: 4 (left, right, down, up) or 8 (and the
+               four diagonals)
+
+Every value is exact in the accumulator type: L_r <= cmax + P2 and S <= paths * (cmax +
+P2) are checked to fit before a match (kernels/sgm.py), so no sum saturates or wraps.
+The winner is the least S over a pixel's candidates, the smallest d among equals, as
+in the local engines; its second best, neighbours, right map and left-right check are
+taken from S as the fast engine takes them from C.
+
+One entry per variant, its step chosen by a scalar (one compile, not five):
+  COSTS      the window costs of image rows y0 <= y < y1 into the band's cost slab
+  VERTICAL   a vertical path over the band's rows, for the columns x0 <= x < x1
+  DIAGONAL   the two diagonal paths going down, or up, over the band's rows
+  SELECT     the two horizontal paths of rows y0 <= y < y1, then each pixel's winner
+
+Path states: state (2, W, D + 2) two buffers of each column's L along a vertical or
+diagonal path (the row before and the row being made), with a sentinel (``big``) at both
+ends of the d axis, so that L(k - 1) and L(k + 1) need no test; mins (2, W) their
+minima.  Buffer 0 holds the state when a step starts and when it ends.
+"""
+
+import numpy as np
+from numba import njit
+
+from ..config import SERIAL
+from ..signature import Signature, Spec, arg, scalar_index
+from .common import ctpop, dtype_of, keep_or_take, lr_agrees, stop_requested
+
+COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3
+
+SC = scalar_index(("step", "window", "dmin", "p1", "p2", "cmax", "never", "y0", "y1",
+                   "band_y0", "x0", "x1", "direction", "add", "extras", "keep_right",
+                   "lr_limit", "keyed"))
+
+
+def spec(cost, pixels, costs, accumulator, negative=False):
+    """The worker of a variant: cost "sad", "ssd" or "shd" (census codes compared with
+    shd); pixels: the compared type; costs: the cost slab's type ("u8" where every cost
+    fits a byte, else the accumulator's); accumulator: "u16" or "u32", of paths and
+    sums; negative: the range starts below 0."""
+    pix, cst, acc = dtype_of(pixels), dtype_of(costs), dtype_of(accumulator)
+    i16, i32, i64, u8 = (np.dtype(t) for t in (np.int16, np.int32, np.int64, np.uint8))
+    arrays = (arg("left_p", pix, 2), arg("right_rev", pix, 2),  # (H + w - 1, Wp [+ s])
+              arg("costs", cst, 3), arg("sums", acc, 3),  # (B, W, D) the band's slabs
+              arg("col_sums", acc, 2), arg("row_sums", acc, 1),  # (Wp, D), (D,) scratch
+              arg("ring", u8, 3),  # (w, Wp, D) scratch for "shd", else (1, 1, 1)
+              arg("state", acc, 3), arg("mins", acc, 2),  # (2, W, D + 2), (2, W)
+              arg("other", acc, 3), arg("other_mins", acc, 2),  # a diagonal's partner
+              arg("line", acc, 2),  # (2, D + 2) a horizontal path's scratch
+              arg("right_best", acc, 1), arg("right_d", i16, 1),  # (W + s,) scratch
+              arg("disp", i32, 2), arg("min_cost", i64, 2),  # (H, W) out
+              arg("second", i64, 2), arg("prev", i64, 2), arg("next", i64, 2),  # extras
+              arg("right_disp", i32, 2), arg("lr_valid", u8, 2),  # or 1-row dummies
+              arg("stop", u8, 1))
+    return Spec(_make(cost, cst.type, acc.type, bool(negative)),
+                Signature(arrays, SC._fields))
+
+
+def _make(cost, cost_type, acc, negative):
+    """The worker of one variant; ``cost``, the slab's ``cost_type``, ``acc`` and
+    ``negative`` are compile-time constants in it."""
+    from ..contract import INVALID, NEG_INVALID
+
+    invalid = NEG_INVALID if negative else INVALID
+    # 16-bit totals may pick their least at its smallest k as one minimum of keys,
+    # total << 16 | k, in one pass with the path from the left, or as two passes of
+    # 16-bit lanes: which is faster depends on the CPU (kernels/fast.py, keyed_range),
+    # so the scalar "keyed" chooses, and both ways are compiled.
+    may_key = acc == np.uint16
+
+    @njit(**SERIAL)
+    def psi(a, b):
+        """As the fast engine's: in the pixels' narrow lanes."""
+        if cost == "sad":
+            return max(a, b) - min(a, b)
+        if cost == "ssd":
+            diff = np.uint32(max(a, b) - min(a, b))
+            return diff * diff
+        return ctpop(a ^ b)
+
+    # Hamming costs keep each window row's costs (at most 64: a byte) in a ring of w
+    # rows, so that a row leaving the column sums subtracts what it added rather than
+    # counting its bits again, as the fast engine does (kernels/jit/fast.py).
+    ringed = cost == "shd"
+
+    @njit(**SERIAL)
+    def column_add(left, right_rev, sums, dmin, kept):
+        """sums[j, k] += psi(left[j], right[j - d]) for d = dmin + k <= j, over the
+        padded columns j; a ringed variant keeps the costs in kept, uint8 (Wp, D)."""
+        wp, ndisp = sums.shape
+        wr = right_rev.shape[0]
+        for j in range(max(dmin, 0), wp):
+            s = sums[j]
+            lv = left[j]
+            r = right_rev[wr - 1 - j + dmin:]
+            if ringed:
+                row = kept[j]
+                for k in range(min(ndisp, j - dmin + 1)):
+                    c = np.uint8(psi(lv, r[k]))
+                    s[k] = s[k] + c
+                    row[k] = c
+            else:
+                for k in range(min(ndisp, j - dmin + 1)):
+                    s[k] = s[k] + psi(lv, r[k])
+
+    @njit(**SERIAL)
+    def column_move(left, right_rev, left_sub, right_sub_rev, sums, dmin, kept):
+        """As column_add for the entering rows, less the leaving (_sub) ones' costs (from
+        kept, where the entering row's then go, in a ringed variant), in one pass; exact
+        modulo the accumulator's width."""
+        wp, ndisp = sums.shape
+        wr = right_rev.shape[0]
+        for j in range(max(dmin, 0), wp):
+            s = sums[j]
+            lv, lv_sub = left[j], left_sub[j]
+            base = wr - 1 - j + dmin
+            r, r_sub = right_rev[base:], right_sub_rev[base:]
+            if ringed:
+                row = kept[j]
+                for k in range(min(ndisp, j - dmin + 1)):
+                    c = np.uint8(psi(lv, r[k]))
+                    s[k] = s[k] + c - row[k]
+                    row[k] = c
+            else:
+                for k in range(min(ndisp, j - dmin + 1)):
+                    s[k] = s[k] + psi(lv, r[k]) - psi(lv_sub, r_sub[k])
+
+    @njit(**SERIAL)
+    def cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, sc, stop):
+        """costs[y - band_y0, x, k] = C(y, x, dmin + k) for rows y0 <= y < y1: column
+        sums moved down the rows, row sums slid along each row (kernels/jit/fast.py)."""
+        w, dmin, cmax = sc[SC.window], sc[SC.dmin], cost_type(sc[SC.cmax])
+        y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
+        width, ndisp = costs.shape[1], costs.shape[2]
+        if w == 1:  # each pixel's own cost: no sums to move
+            wr = right_rev.shape[1]
+            for y in range(y0, y1):
+                if stop_requested(stop):
+                    return 0
+                out = costs[y - band_y0]
+                left, right = left_p[y], right_rev[y]
+                for x in range(width):
+                    n = max(min(ndisp, x - dmin + 1), 0)
+                    lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
+                    c = out[x]
+                    lv = left[x]
+                    r = right[wr - 1 - x + dmin:]
+                    for k in range(lo):
+                        c[k] = cmax
+                    for k in range(lo, n):
+                        c[k] = cost_type(psi(lv, r[k]))
+                    for k in range(n, ndisp):
+                        c[k] = cmax
+            return 0
+        col_sums[:] = 0
+        for a in range(w):
+            column_add(left_p[y0 + a], right_rev[y0 + a], col_sums, dmin,
+                       ring[(y0 + a) % w if ringed else 0])
+        for y in range(y0, y1):
+            if stop_requested(stop):
+                return 0
+            if y > y0:
+                # Row y + w - 1 enters, row y - 1 leaves: one slot of the ring.
+                column_move(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
+                            right_rev[y - 1], col_sums, dmin,
+                            ring[(y - 1) % w if ringed else 0])
+            row_sums[:] = 0
+            for b in range(w - 1):
+                s = col_sums[b]
+                for k in range(ndisp):
+                    row_sums[k] = row_sums[k] + s[k]
+            out = costs[y - band_y0]
+            for x in range(width):
+                add = col_sums[x + w - 1]
+                sub = col_sums[x - 1] if x > 0 else col_sums[0]
+                c = out[x]
+                # Candidates: d <= x and x - d <= width - 1 (k in lo..n - 1).
+                n = max(min(ndisp, x - dmin + 1), 0)
+                lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
+                keep = 1 if x > 0 else 0  # column 0 is not yet in the sums at x = 0
+                for k in range(ndisp):
+                    v = acc(row_sums[k] + add[k] - sub[k] * keep)
+                    row_sums[k] = v
+                    c[k] = cost_type(v) if lo <= k < n else cmax
+        return 0
+
+    @njit(**SERIAL)
+    def path_step(before, least, cost, after, p1, p2, never):
+        """after[1 + k] = L(p, k) from before (L(p - r) with its sentinels) and its
+        minimum ``least``; returns min_k L(p, k).  before, after: (D + 2,); cost: (D,);
+        never: the accumulator's largest value."""
+        ndisp = cost.shape[0]
+        jump = acc(least + p2)
+        best = never
+        for k in range(ndisp):
+            v = min(min(before[k + 1], jump), acc(min(before[k], before[k + 2]) + p1))
+            value = acc(cost[k] + v - least)
+            after[k + 1] = value
+            best = min(best, value)
+        return best
+
+    @njit(**SERIAL)
+    def path_step_into(before, least, cost, after, sums, add, p1, p2, never):
+        """path_step, the values also added into sums, (D,) (add 1), or written there
+        (add 0), in the same pass (add 2: path_step)."""
+        if add == 2:
+            return path_step(before, least, cost, after, p1, p2, never)
+        ndisp = cost.shape[0]
+        jump = acc(least + p2)
+        best = never
+        keep = acc(add)
+        for k in range(ndisp):
+            v = min(min(before[k + 1], jump), acc(min(before[k], before[k + 2]) + p1))
+            value = acc(cost[k] + v - least)
+            after[k + 1] = value
+            best = min(best, value)
+            sums[k] = acc(sums[k] * keep + value)
+        return best
+
+    @njit(**SERIAL)
+    def fresh(state):
+        """A path's state before its first pixel: zeros between the sentinels."""
+        for k in range(1, state.shape[0] - 1):
+            state[k] = 0
+
+    @njit(**SERIAL)
+    def path_start(cost, after, never):
+        """A path's first pixel: after[1 + k] = C(p, k); returns its minimum."""
+        best = never
+        for k in range(cost.shape[0]):
+            after[k + 1] = cost[k]
+            best = min(best, cost[k])
+        return best
+
+    @njit(**SERIAL)
+    def add_into(sums, after, add):
+        """sums[k] (+)= after[1 + k]: the first path of a band's pass assigns."""
+        if add:
+            for k in range(sums.shape[0]):
+                sums[k] = sums[k] + after[k + 1]
+        else:
+            for k in range(sums.shape[0]):
+                sums[k] = after[k + 1]
+
+    @njit(**SERIAL)
+    def copy_state(state, mins, x):
+        """Column x's state from buffer 1 into buffer 0 (element by element: Numba
+        copies a slice assignment's source first, which allocates)."""
+        a, b = state[0, x], state[1, x]
+        for k in range(a.shape[0]):
+            a[k] = b[k]
+        mins[0, x] = mins[1, x]
+
+    @njit(**SERIAL)
+    def vertical(costs, sums, state, mins, sc, stop):
+        """The vertical path down (direction 1) or up (-1) over the band's rows y0 <=
+        y < y1 (image rows; the slabs start at band_y0), columns x0 <= x < x1, from the
+        state the band's neighbour left (fresh where y0 is the image's first row going
+        down, or the band ends at the image's last going up: see kernels/sgm.py); adds
+        into sums (add 0: assigns, 2: leaves them, for the state alone)."""
+        p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
+        y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
+        x0, x1, add = sc[SC.x0], sc[SC.x1], sc[SC.add]
+        down = sc[SC.direction] > 0
+        rows = y1 - y0
+        for i in range(rows):
+            if stop_requested(stop):
+                return 0
+            y = y0 + i if down else y1 - 1 - i
+            before, after = i % 2, 1 - i % 2
+            row = costs[y - band_y0]
+            band_sums = sums[y - band_y0] if add < 2 else sums[0]
+            for x in range(x0, x1):
+                mins[after, x] = path_step_into(state[before, x], mins[before, x], row[x],
+                                                state[after, x], band_sums[x], add, p1, p2,
+                                                never)
+        if rows % 2:  # the last row's state back into buffer 0
+            for x in range(x0, x1):
+                copy_state(state, mins, x)
+        return 0
+
+    @njit(**SERIAL)
+    def diagonal(costs, sums, state, mins, other, other_mins, sc, stop):
+        """The two diagonal paths going down (direction 1: from up-left and up-right)
+        or up (-1: from down-left and down-right) over the band's rows, every column:
+        state for the path coming from the left (x - 1), other for the one from the
+        right (x + 1); a path entering at the image's side starts there."""
+        p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
+        y0, y1, band_y0, add = sc[SC.y0], sc[SC.y1], sc[SC.band_y0], sc[SC.add]
+        down = sc[SC.direction] > 0
+        width = costs.shape[1]
+        rows = y1 - y0
+        for i in range(rows):
+            if stop_requested(stop):
+                return 0
+            y = y0 + i if down else y1 - 1 - i
+            before, after = i % 2, 1 - i % 2
+            row = costs[y - band_y0]
+            for x in range(width):
+                if x == 0:
+                    mins[after, x] = path_start(row[x], state[after, x], never)
+                else:
+                    mins[after, x] = path_step(state[before, x - 1], mins[before, x - 1],
+                                               row[x], state[after, x], p1, p2, never)
+                if x == width - 1:
+                    other_mins[after, x] = path_start(row[x], other[after, x], never)
+                else:
+                    other_mins[after, x] = path_step(other[before, x + 1],
+                                                     other_mins[before, x + 1], row[x],
+                                                     other[after, x], p1, p2, never)
+                if add < 2:
+                    s = sums[y - band_y0, x]
+                    add_into(s, state[after, x], add)
+                    add_into(s, other[after, x], 1)
+        if rows % 2:
+            for x in range(width):
+                copy_state(state, mins, x)
+                copy_state(other, other_mins, x)
+        return 0
+
+    @njit(**SERIAL)
+    def select_rows(costs, sums, line, right_best_rev, right_rev_d, disp, min_cost,
+                    second, prev, nxt, right_disp, lr_valid, sc, stop):
+        """For rows y0 <= y < y1: the path from the right added into the row's sums,
+        then the path from the left made on the way to each pixel's winner, second
+        best, neighbours, and right map, and the row's left-right check (as the fast
+        engine's select_row)."""
+        p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
+        y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
+        dmin, extras = sc[SC.dmin], sc[SC.extras] != 0
+        keep_right, lr_limit = sc[SC.keep_right], sc[SC.lr_limit]
+        track_right = keep_right != 0 or lr_limit >= 0
+        width, ndisp = costs.shape[1], costs.shape[2]
+        shift = -dmin if negative else 0
+        keyed = sc[SC.keyed] != 0
+        for y in range(y0, y1):
+            if stop_requested(stop):
+                return 0
+            row, total = costs[y - band_y0], sums[y - band_y0]
+            # A path starts from a state of zeros with least 0: its first values are
+            # then the costs themselves (min(0, P1, P2) = 0), with no branch.
+            fresh(line[1])
+            least = acc(0)
+            for i in range(width):
+                x = width - 1 - i
+                before, after = (i + 1) % 2, i % 2
+                least = path_step_into(line[before], least, row[x], line[after], total[x],
+                                       1, p1, p2, never)
+            if track_right:
+                right_best_rev[:] = never
+                right_rev_d[:] = -1
+            out_disp, out_cost = disp[y], min_cost[y]
+            fresh(line[1])
+            least = acc(0)
+            for x in range(width):
+                before, after = (x + 1) % 2, x % 2
+                t = total[x]
+                a, b = line[after], line[before]
+                c = row[x]
+                n = max(min(ndisp, x - dmin + 1), 0)
+                lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
+                # The path from the left, its values added into the totals, and the
+                # least total among the candidates at its smallest k, in one pass.
+                jump = acc(least + p2)
+                next_least = never
+                if may_key and keyed:
+                    key = np.uint32(0xFFFFFFFF)
+                    for k in range(ndisp):
+                        v = min(min(b[k + 1], jump), acc(min(b[k], b[k + 2]) + p1))
+                        value = acc(c[k] + v - least)
+                        a[k + 1] = value
+                        next_least = min(next_least, value)
+                        total_k = acc(t[k] + value)
+                        t[k] = total_k
+                        candidate = np.uint32((np.uint32(total_k) << np.uint32(16)) |
+                                              np.uint32(k))
+                        key = min(key, candidate if lo <= k < n else np.uint32(0xFFFFFFFF))
+                    best = acc(key >> np.uint32(16))
+                    first = np.int16(key & np.uint32(0xFFFF))
+                else:
+                    best = never
+                    for k in range(ndisp):
+                        v = min(min(b[k + 1], jump), acc(min(b[k], b[k + 2]) + p1))
+                        value = acc(c[k] + v - least)
+                        a[k + 1] = value
+                        next_least = min(next_least, value)
+                        total_k = acc(t[k] + value)
+                        t[k] = total_k
+                        best = min(best, total_k if lo <= k < n else never)
+                    first = np.int16(n)
+                    none = np.int16(n)
+                    for k in range(lo, n):
+                        first = min(first, np.int16(k) if t[k] == best else none)
+                least = next_least
+                if n <= lo:
+                    out_disp[x] = invalid
+                    out_cost[x] = -1
+                    if extras:
+                        second[y, x], prev[y, x], nxt[y, x] = -1, -1, -1
+                    continue
+                out_disp[x] = dmin + first
+                out_cost[x] = best
+                if track_right:
+                    base = width - 1 - x + dmin + shift
+                    best_r = right_best_rev[base:]
+                    d_r = right_rev_d[base:]
+                    for k in range(lo, n):
+                        v = t[k]
+                        kept = best_r[k]
+                        d_r[k] = keep_or_take(d_r[k], k, v < kept)
+                        best_r[k] = min(v, kept)
+                if extras:
+                    other = never
+                    for k in range(lo, n):
+                        if abs(k - first) >= 2:
+                            other = min(other, t[k])
+                    second[y, x] = -1 if other == never else np.int64(other)
+                    prev[y, x] = -1 if first == lo else np.int64(t[first - 1])
+                    nxt[y, x] = -1 if first + 1 >= n else np.int64(t[first + 1])
+            if track_right and keep_right:
+                for xr in range(width):
+                    k = right_rev_d[width - 1 - xr + shift]
+                    right_disp[y, xr] = invalid if k < 0 else dmin + k
+            if lr_limit >= 0:
+                for x in range(width):
+                    d = out_disp[x]
+                    back = invalid
+                    if d != invalid:
+                        k = right_rev_d[width - 1 - x + d + shift]
+                        back = invalid if k < 0 else dmin + k
+                    lr_valid[y, x] = lr_agrees(d, back, lr_limit, invalid)
+        return 0
+
+    @njit(**SERIAL)
+    def worker(left_p, right_rev, costs, sums, col_sums, row_sums, ring, state, mins,
+               other, other_mins, line, right_best, right_d, disp, min_cost, second, prev,
+               nxt, right_disp, lr_valid, stop, sc):
+        step = sc[SC.step]
+        if step == COSTS:
+            return cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, sc, stop)
+        if step == VERTICAL:
+            return vertical(costs, sums, state, mins, sc, stop)
+        if step == DIAGONAL:
+            return diagonal(costs, sums, state, mins, other, other_mins, sc, stop)
+        return select_rows(costs, sums, line, right_best, right_d, disp, min_cost, second,
+                           prev, nxt, right_disp, lr_valid, sc, stop)
+
+    return worker

@@ -1,0 +1,342 @@
+"""Semi-global matching: the window costs of the contract aggregated along 4 or 8 paths
+(Hirschmueller's recurrence, kernels/jit/sgm.py has it exactly), then the winner, its
+second best, neighbours, right map and left-right check as the local engines make them,
+so that every stage of the pipeline runs on its result unchanged.
+
+Memory never holds the H x W x D volume: the image is cut into bands of rows, and a band
+holds its costs and sums (B x W x D each).  The paths down need every row above a band,
+the paths up every row below, so the rows are swept twice, exactly:
+
+  pass 1, down   each band's costs, and the down paths through them; the down paths'
+                 state (one row of W x D) kept where each band starts
+  pass 2, up     bands from the bottom: the band's costs again, the down paths again
+                 from the kept state (adding into the band's sums), the up paths from
+                 the band below, then each row's two horizontal paths and its winner
+
+A pair of at most one band skips pass 1.  Every core works on one band at a time: the
+costs and the rows' last step split the band's rows, the vertical paths its columns
+(each column's path is its own); the diagonal paths cross columns and run in one thread.
+Results do not depend on the bands or the threads: every split computes the same sums.
+
+Layers:
+  match_sgm     public: validate, pad, choose the accumulator and the bands, run
+  the passes    here, each step's stripes in the pool (kernels/runtime.py)
+  jit/sgm.py    the workers
+"""
+
+import functools
+
+import numpy as np
+
+from . import native, runtime
+from .census import census_transform
+from .contract import (
+    CENSUS,
+    SAD,
+    SHD,
+    SSD,
+    candidate_count,
+    census_bits,
+    census_dtype,
+    dtype_name,
+    pad_edge,
+    validate,
+)
+from .fast import keyed_range
+from .window import extra_maps, result
+from .workspace import output
+
+PATHS = (4, 8)
+COST_NAMES = {SAD: "sad", SSD: "ssd", SHD: "shd"}
+COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3  # the worker's steps (jit/sgm.py)
+
+# A band's two slabs (costs and sums) stay under this many bytes: at 1920 wide, d
+# 0..255 and 16-bit sums, 64 rows.
+BAND_BYTES = 64 << 20
+
+
+def per_pixel_max(cost, pixels, bits=None):
+    """The largest cost one pixel can add: SAD's largest pixel value, its square for
+    SSD, the code's bits for Hamming costs (``bits``: a census code's, else the type's)."""
+    top = int(np.iinfo(pixels).max)
+    if cost == SAD:
+        return top
+    if cost == SSD:
+        return top * top
+    return int(bits if bits is not None else np.iinfo(pixels).bits)
+
+
+def default_penalties(cost, window, census_bits_=None, pixels=np.uint8):
+    """(P1, P2) scaled to the cost, as OpenCV scales them to its block: for census, a
+    quarter of the code's bits and all of them per window pixel; for SAD, OpenCV's 8
+    and 32 per window pixel (on 8-bit images; 16-bit ones scale by 257); for SSD, their
+    squares' scale."""
+    area = window * window
+    if cost in ("census", "shd"):
+        bits = census_bits_ if census_bits_ is not None else np.iinfo(pixels).bits
+        return max(1, bits * area // 4), bits * area
+    scale = 1 if np.dtype(pixels) == np.uint8 else 257
+    if cost == "ssd":
+        return 64 * area * scale * scale, 1024 * area * scale * scale
+    return 8 * area * scale, 32 * area * scale
+
+
+@functools.cache
+def accumulator(cmax, p1, p2, paths):
+    """The accumulator type (np.uint16 or np.uint32) in which every path value (at most
+    cmax + P2, its sentinel at most cmax + P2 + P1) and every sum over the paths fits
+    below the type's largest value, which marks none; ValueError if none does."""
+    for dtype in (np.uint16, np.uint32):
+        top = int(np.iinfo(dtype).max)
+        if cmax + p2 + p1 < top and paths * (cmax + p2) < top:
+            return np.dtype(dtype)
+    raise ValueError(f"semi-global sums of costs up to {cmax} with P2 {p2} over {paths} "
+                     "paths exceed 32 bits; use a smaller window, a Hamming cost or "
+                     "smaller penalties")
+
+
+def cost_type(cmax, acc):
+    """The cost slab's type: a byte where every cost fits one (half the memory traffic
+    of the paths' reads), else the accumulator's."""
+    return np.dtype(np.uint8) if cmax <= 255 else acc
+
+
+def variant(cost, pixels, cmax, acc, dmin=0):
+    return (COST_NAMES.get(cost, "shd"), dtype_name(pixels), dtype_name(cost_type(cmax, acc)),
+            dtype_name(acc), dmin < 0)
+
+
+def entries(cost, pixels, window, dmin, paths, p1, p2, census_window=None,
+            census_pattern=None):
+    """The (kernel, variant) entries a semi-global match loads: its census transform,
+    if any, and its worker."""
+    from . import census
+
+    compared, code, bits = pixels, cost, None
+    if cost == "census":
+        compared = census_dtype(census_window, census_pattern)
+        code, bits = "shd", census_bits(census_window, census_pattern)
+    code_id = {"sad": SAD, "ssd": SSD, "shd": SHD}[code]
+    cmax = per_pixel_max(code_id, compared, bits) * window * window
+    acc = accumulator(cmax, p1, p2, paths)
+    return census.entries(pixels, cost, census_window, census_pattern) + \
+        [("sgm", variant(code_id, compared, cmax, acc, dmin))]
+
+
+def variants(largest_window=31, largest_penalty=10**7):
+    """Every variant a semi-global match can load, for 8- and 16-bit images and census
+    codes of every width, windows up to ``largest_window`` and penalties from 0 up to
+    ``largest_penalty`` (what ``csw compile`` puts in the cache)."""
+    found = set()
+    kinds = [(SAD, np.uint8), (SAD, np.uint16), (SSD, np.uint8), (SSD, np.uint16)] + \
+        [(SHD, t) for t in (np.uint8, np.uint16, np.uint32, np.uint64)]
+    for cost, pixels in kinds:
+        for window in range(1, largest_window + 1, 2):
+            for bits in ((None,) if cost != SHD else range(8, 65)):
+                cmax = per_pixel_max(cost, pixels, bits) * window * window
+                for p2 in (0, cmax, largest_penalty):
+                    for paths in PATHS:
+                        try:
+                            acc = accumulator(cmax, 0, p2, paths)
+                        except ValueError:
+                            continue
+                        for dmin in (0, -1):
+                            found.add(variant(cost, pixels, cmax, acc, dmin))
+    return sorted(found)
+
+
+def band_rows(height, width, ndisp, itemsize, band_bytes):
+    """Rows per band: as many as keep a band's two slabs (``itemsize``: their bytes per
+    (pixel, d) together) under band_bytes, at least 1."""
+    return int(max(1, min(height, band_bytes // (width * ndisp * itemsize))))
+
+
+def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
+              census_window=None, census_pattern=None, extras=False, right_map=False,
+              lr_check=None, threads=None, into=None, band_bytes=None,
+              workspace=None, engine="fast", csw=False, tau=-1, rule="literal",
+              csw_margin=None, rows=None):
+    """Semi-global matching of a rectified pair (kernels/jit/sgm.py has the definition).
+
+    left, right: uint8 or uint16 (H, W), same shape and dtype.  window, dmin, dmax,
+    cost, census_window, census_pattern: as for the local engines (the window sums the
+    costs before aggregation; 1 aggregates each pixel's own).  paths: 4 or 8.  p1, p2:
+    the penalties, whole numbers, 0 <= P1 <= P2.  extras, right_map, lr_check, threads,
+    into: as for kernels.fast.match_fast.  band_bytes: a band's memory (tests make it
+    small to cut many bands; None: BAND_BYTES); workspace is not used (the bands are
+    the match's own).
+    engine, tau, rule, csw_margin: the local engines' (taken, unused); CSW and row
+    samples are theirs only.
+    Returns a MatchResult whose min_cost, second, prev and next costs are the
+    aggregated sums S.
+    """
+    if csw or rows is not None:
+        raise ValueError("semi-global matching takes every candidate of every row: no CSW, "
+                         "no row sample")
+    if paths not in PATHS:
+        raise ValueError(f"paths must be one of {', '.join(map(str, PATHS))}, got {paths!r}")
+    for name, value in (("P1", p1), ("P2", p2)):
+        if isinstance(value, bool) or int(value) != value or value < 0:
+            raise ValueError(f"{name} must be a whole number >= 0, got {value!r}")
+    p1, p2 = int(p1), int(p2)
+    if p1 > p2:
+        raise ValueError(f"P1 ({p1}) must not exceed P2 ({p2})")
+    left, right, s, _ = validate(left, right, window=window, dmin=dmin, dmax=dmax,
+                                 cost=cost, csw=False, tau=-1, census_window=census_window,
+                                 census_pattern=census_pattern, extras=extras,
+                                 right_map=right_map, lr_check=lr_check)
+    height, width = left.shape
+    ndisp = s.dmax - s.dmin + 1
+    if ndisp > np.iinfo(np.int16).max:
+        raise ValueError("semi-global matching searches at most 32767 disparities at once; "
+                         "narrow dmin..dmax")
+    h = s.window // 2
+    shift = max(0, -s.dmin)
+    shape = (height + 2 * h, width + 2 * h)
+    bits = None
+    if s.cost == CENSUS:
+        bits = census_bits(census_window, census_pattern)
+        left_p = census_transform(left, census_window, threads, pad=h, pattern=census_pattern)
+        right_rev = census_transform(right, census_window, threads, pad=h, reverse=True,
+                                     pattern=census_pattern)
+        s = s._replace(cost=SHD)
+    else:
+        left_p = pad_edge(left, h, left.dtype, out=np.empty(shape, left.dtype))
+        right_rev = pad_edge(right[:, ::-1], h, right.dtype, out=np.empty(shape, right.dtype))
+    if shift:
+        right_rev = np.ascontiguousarray(np.pad(right_rev, ((0, 0), (shift, 0)), mode="edge"))
+    cmax = per_pixel_max(s.cost, left_p.dtype, bits) * s.window * s.window
+    acc = accumulator(cmax, p1, p2, paths)
+    run = native.entry("sgm", variant(s.cost, left_p.dtype, cmax, acc, s.dmin))
+    n_threads = runtime.thread_count(threads)
+
+    disp = output(into, "disparity", (height, width), np.int32)
+    min_cost = np.empty((height, width), np.int64)
+    maps = extra_maps(disp.shape, s, workspace)
+    checked = s.lr_check >= 0
+    lr_valid = output(into, "lr_valid", (height, width), np.uint8) if checked else \
+        np.empty((1, width), np.uint8)
+    rows_per_band = band_rows(height, width, ndisp,
+                              acc.itemsize + cost_type(cmax, acc).itemsize,
+                              BAND_BYTES if band_bytes is None else band_bytes)
+    bands = [(y0, min(y0 + rows_per_band, height)) for y0 in range(0, height, rows_per_band)]
+    costs = np.empty((rows_per_band, width, ndisp), cost_type(cmax, acc))
+    sums = np.empty((rows_per_band, width, ndisp), acc)
+    never = int(np.iinfo(acc).max)
+    big = cmax + p2  # above every path value: the d axis's sentinels
+
+    def fresh_state():
+        state = np.zeros((2, width, ndisp + 2), acc)
+        state[:, :, 0] = state[:, :, -1] = big
+        return state, np.zeros((2, width), acc)
+
+    down, down_mins = fresh_state()
+    up, up_mins = fresh_state()
+    diagonals = paths == 8
+    if diagonals:
+        down_l, down_l_mins = fresh_state()
+        down_r, down_r_mins = fresh_state()
+        up_l, up_l_mins = fresh_state()
+        up_r, up_r_mins = fresh_state()
+    dummy3 = np.empty((1, 1, 1), acc)
+    dummy2 = np.empty((1, 1), acc)
+    base = dict(left_p=left_p, right_rev=right_rev, costs=costs, sums=sums,
+                col_sums=dummy2, row_sums=np.empty(1, acc), ring=np.empty((1, 1, 1), np.uint8),
+                state=dummy3, mins=dummy2,
+                other=dummy3, other_mins=dummy2, line=dummy2,
+                right_best=np.empty(1, acc), right_d=np.empty(1, np.int16),
+                disp=disp, min_cost=min_cost, second=maps[0], prev=maps[1], next=maps[2],
+                right_disp=maps[3], lr_valid=lr_valid, window=s.window, dmin=s.dmin,
+                p1=p1, p2=p2, cmax=cmax, never=never, y0=0, y1=0, band_y0=0, x0=0, x1=0,
+                direction=1, add=0, extras=int(s.extras), keep_right=int(s.right_map),
+                lr_limit=s.lr_check, keyed=int(keyed_range() > 0))
+    right_width = width + shift
+    work_per_row = width * ndisp * 8
+
+    def rows_step(step, y0, y1, scratch):
+        """A step over the band's rows y0..y1, its rows split between the threads."""
+        count = min(n_threads, y1 - y0)
+        work = (y1 - y0) * work_per_row
+        if work < runtime.DIRECT_WORK:
+            count = 1
+        edges = y0 + runtime.even_split(y1 - y0, count)
+
+        def stripe(i, stop):
+            return run(**dict(base, **scratch(), step=step, y0=int(edges[i]),
+                              y1=int(edges[i + 1]), band_y0=y0, stop=stop))
+
+        runtime.run_stripes(stripe, count, count, work)
+
+    def cost_scratch():
+        # Hamming costs' ring of the window's rows (kernels/jit/sgm.py): w x Wp x D bytes
+        ring = (s.window, left_p.shape[1], ndisp) if s.cost == SHD and s.window > 1 \
+            else (1, 1, 1)
+        return dict(col_sums=np.empty((left_p.shape[1], ndisp), acc),
+                    row_sums=np.empty(ndisp, acc), ring=np.empty(ring, np.uint8))
+
+    def select_scratch():
+        line = np.empty((2, ndisp + 2), acc)
+        line[:, 0] = line[:, -1] = big
+        return dict(line=line, right_best=np.empty(right_width, acc),
+                    right_d=np.empty(right_width, np.int16))
+
+    def vertical(y0, y1, state, mins, direction, add):
+        count = min(n_threads, width)
+        work = (y1 - y0) * work_per_row
+        if work < runtime.DIRECT_WORK:
+            count = 1
+        edges = runtime.even_split(width, count)
+
+        def stripe(i, stop):
+            return run(**dict(base, state=state, mins=mins, step=VERTICAL, y0=y0, y1=y1,
+                              band_y0=y0, x0=int(edges[i]), x1=int(edges[i + 1]),
+                              direction=direction, add=add, stop=stop))
+
+        runtime.run_stripes(stripe, count, count, work)
+
+    def diagonal(y0, y1, pair, direction, add):
+        (state, mins), (other, other_mins) = pair
+        runtime.run_stripes(
+            lambda i, stop: run(**dict(base, state=state, mins=mins, other=other,
+                                       other_mins=other_mins, step=DIAGONAL, y0=y0,
+                                       y1=y1, band_y0=y0, direction=direction, add=add,
+                                       stop=stop)),
+            1, 1, 0)
+
+    kept = {}  # band start -> the down paths' states entering the band
+    for y0, y1 in bands[:-1]:  # pass 1
+        rows_step(COSTS, y0, y1, cost_scratch)
+        vertical(y0, y1, down, down_mins, 1, 2)
+        if diagonals:
+            diagonal(y0, y1, ((down_l, down_l_mins), (down_r, down_r_mins)), 1, 2)
+        kept[y1] = [a[0].copy() for a in ((down, down_mins) + (
+            (down_l, down_l_mins, down_r, down_r_mins) if diagonals else ()))]
+    for y0, y1 in reversed(bands):  # pass 2
+        rows_step(COSTS, y0, y1, cost_scratch)
+        if y0 in kept:
+            states = (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
+                                          if diagonals else ())
+            for array, saved in zip(states, kept.pop(y0), strict=True):
+                array[0] = saved
+        elif y0 > 0:
+            raise AssertionError("a band's down state was not kept")
+        else:
+            for array in (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
+                                              if diagonals else ()):
+                _reset(array, big)
+        vertical(y0, y1, down, down_mins, 1, 0)
+        vertical(y0, y1, up, up_mins, -1, 1)
+        if diagonals:
+            diagonal(y0, y1, ((down_l, down_l_mins), (down_r, down_r_mins)), 1, 1)
+            diagonal(y0, y1, ((up_l, up_l_mins), (up_r, up_r_mins)), -1, 1)
+        rows_step(SELECT, y0, y1, select_scratch)
+    plain = candidate_count(width, s.dmin, s.dmax) * height
+    return result(disp, min_cost, plain, plain, s, maps,
+                  lr_valid.view(np.bool_) if checked else None)
+
+
+def _reset(array, big):
+    """A path state (or its minima) as at a path's start: zeros, sentinels at the ends."""
+    array[0] = 0
+    if array.ndim == 3:
+        array[0, :, 0] = array[0, :, -1] = big

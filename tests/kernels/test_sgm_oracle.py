@@ -1,0 +1,152 @@
+"""Semi-global matching equals its brute-force oracle exactly (tests/oracle.py,
+sgm_match), whatever the bands and threads, on every cost, window, path count and range."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from csw import kernels
+from csw.kernels import sgm
+from oracle import census, lr_consistent, sgm_match
+
+CENSUS = dict(census_window=3, census_pattern="dense")
+
+
+def pair(rng, height, width, dtype=np.uint8, shift=2, noise=12):
+    top = int(np.iinfo(dtype).max)
+    left = rng.integers(0, top + 1, (height, width), dtype=np.int64)
+    right = np.roll(left, -shift, axis=1) + rng.integers(-noise, noise + 1, left.shape)
+    return left.astype(dtype), np.clip(right, 0, top).astype(dtype)
+
+
+def assert_equals_oracle(left, right, band_bytes=None, threads=1, lr=1, **kw):
+    got = sgm.match_sgm(left, right, extras=True, right_map=True, lr_check=lr,
+                        band_bytes=band_bytes, threads=threads, **CENSUS, **kw)
+    disp, mins, more = sgm_match(left, right, kw["window"], kw["dmin"], kw["dmax"],
+                                 kw["cost"], kw["paths"], kw["p1"], kw["p2"], **CENSUS)
+    np.testing.assert_array_equal(got.disparity, disp)
+    np.testing.assert_array_equal(got.min_cost, mins)
+    for name in ("second_cost", "prev_cost", "next_cost", "right_disparity"):
+        np.testing.assert_array_equal(getattr(got, name), more[name], err_msg=name)
+    invalid = kernels.invalid(kw["dmin"])
+    np.testing.assert_array_equal(got.lr_valid,
+                                  lr_consistent(disp, more["right_disparity"], lr, invalid))
+    return got
+
+
+def one_row_bands(left, dmin, dmax, itemsize=3):
+    """band_bytes that cut a band per row (slabs of costs and 16-bit sums)."""
+    return left.shape[1] * (dmax - dmin + 1) * itemsize
+
+
+@pytest.mark.parametrize("cost", ["sad", "ssd", "shd", "census"])
+@pytest.mark.parametrize("window", [1, 3])
+@pytest.mark.parametrize("paths", [4, 8])
+def test_every_cost_window_and_path_count(cost, window, paths):
+    rng = np.random.default_rng(len(cost) * 10 + window + paths)
+    left, right = pair(rng, 9, 14)
+    p1, p2 = sgm.default_penalties(cost, window, 8)
+    for dmin, dmax in [(0, 5), (-2, 4), (3, 7)]:
+        assert_equals_oracle(left, right, window=window, dmin=dmin, dmax=dmax, cost=cost,
+                             paths=paths, p1=p1, p2=p2)
+
+
+@pytest.mark.parametrize("paths", [4, 8])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_bands_and_threads_change_nothing(paths, threads):
+    """Bands of one, two and all rows, one thread or two: the same sums, bit for bit."""
+    rng = np.random.default_rng(paths + threads)
+    left, right = pair(rng, 11, 16)
+    kw = dict(window=3, dmin=0, dmax=6, cost="sad", paths=paths, p1=40, p2=300)
+    row = one_row_bands(left, 0, 6)
+    for band_bytes in (row, 2 * row + 1, 5 * row, None):
+        assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
+
+
+def test_sixteen_bit_pixels_take_32_bit_sums():
+    rng = np.random.default_rng(5)
+    left, right = pair(rng, 8, 12, np.uint16, noise=3000)
+    p1, p2 = sgm.default_penalties("sad", 3, pixels=np.uint16)
+    cmax = 65535 * 9
+    assert sgm.accumulator(cmax, p1, p2, 4) == np.uint32
+    assert_equals_oracle(left, right, window=3, dmin=0, dmax=5, cost="sad", paths=4,
+                         p1=p1, p2=p2, band_bytes=one_row_bands(left, 0, 5, 8))
+
+
+@settings(deadline=None, max_examples=20)
+@given(seed=st.integers(0, 2**31), height=st.integers(1, 7), width=st.integers(3, 12),
+       span=st.integers(0, 5), dmin=st.integers(-3, 3), p1=st.integers(0, 30),
+       extra=st.integers(0, 200), paths=st.sampled_from([4, 8]),
+       rows_per_band=st.integers(1, 8))
+def test_random_shapes_ranges_and_penalties(seed, height, width, span, dmin, p1, extra,
+                                            paths, rows_per_band):
+    rng = np.random.default_rng(seed)
+    left, right = pair(rng, height, width, noise=40)
+    dmax = min(dmin + span, width - 1)
+    dmin = max(dmin, -(width - 1))
+    assert_equals_oracle(left, right, window=1, dmin=dmin, dmax=dmax, cost="sad",
+                         paths=paths, p1=p1, p2=p1 + extra,
+                         band_bytes=rows_per_band * one_row_bands(left, dmin, dmax))
+
+
+@pytest.mark.parametrize("cost,window", [("sad", 3), ("census", 1), ("ssd", 1)])
+def test_no_penalty_is_local_matching(cost, window):
+    """With P1 = P2 = 0 every path is the cost itself: the local matcher's map, and its
+    costs times the paths."""
+    rng = np.random.default_rng(3)
+    left, right = pair(rng, 10, 15)
+    for paths in (4, 8):
+        got = sgm.match_sgm(left, right, window=window, dmin=0, dmax=6, cost=cost,
+                            paths=paths, p1=0, p2=0, **CENSUS)
+        local = kernels.match(left, right, engine="fast", window=window, dmin=0, dmax=6,
+                              cost=cost, **CENSUS)
+        np.testing.assert_array_equal(got.disparity, local.disparity)
+        np.testing.assert_array_equal(got.min_cost,
+                                      np.where(local.min_cost >= 0, paths * local.min_cost,
+                                               -1))
+
+
+def test_census_codes_are_the_oracles():
+    """The census cost compares the codes the oracle computes (a sparse pattern too)."""
+    rng = np.random.default_rng(8)
+    left, right = pair(rng, 9, 12)
+    kw = dict(window=1, dmin=0, dmax=4, cost="census", paths=4, p1=3, p2=10)
+    got = sgm.match_sgm(left, right, census_window=5, census_pattern="sparse", **kw)
+    disp, mins, _ = sgm_match(left, right, 1, 0, 4, "census", 4, 3, 10, 5, "sparse")
+    np.testing.assert_array_equal(got.disparity, disp)
+    np.testing.assert_array_equal(got.min_cost, mins)
+    assert census(left, 5, "sparse").dtype == object  # the oracle's own transform
+
+
+def test_real_pair_crop(data_dir):
+    """A crop of Tsukuba, census 5x5 over a 3x3 window: the oracle's map."""
+    from csw.data import datasets
+
+    loaded = datasets.load("tsukuba", data_dir)
+    gray = loaded.left if loaded.left.ndim == 2 else loaded.left.mean(axis=2)
+    left = np.ascontiguousarray(gray[100:118, 120:150]).astype(np.uint8)
+    gray_r = loaded.right if loaded.right.ndim == 2 else loaded.right.mean(axis=2)
+    right = np.ascontiguousarray(gray_r[100:118, 120:150]).astype(np.uint8)
+    got = assert_equals_oracle(left, right, window=3, dmin=0, dmax=12, cost="census",
+                               paths=4, p1=18, p2=72,
+                               band_bytes=one_row_bands(left, 0, 12) * 4)
+    assert (got.disparity >= 0).mean() > 0.5
+
+
+@pytest.mark.parametrize("bad,message", [
+    (dict(paths=5), "paths must be one of 4, 8"),
+    (dict(p1=10, p2=5), "must not exceed P2"),
+    (dict(p1=-1), "P1 must be a whole number"),
+    (dict(csw=True), "no CSW"),
+])
+def test_bad_options_are_refused(bad, message):
+    left = np.zeros((6, 10), np.uint8)
+    kw = dict(window=1, dmin=0, dmax=3, cost="sad", paths=4, p1=1, p2=2)
+    with pytest.raises(ValueError, match=message):
+        sgm.match_sgm(left, left, **{**kw, **bad})
+
+
+def test_sums_that_would_pass_32_bits_are_refused():
+    with pytest.raises(ValueError, match="exceed 32 bits"):
+        sgm.accumulator(65535 * 65535 * 81, 1, 2, 8)
