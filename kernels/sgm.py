@@ -25,6 +25,7 @@ Layers:
 """
 
 import functools
+import math
 
 import numpy as np
 
@@ -50,9 +51,9 @@ PATHS = (4, 8)
 COST_NAMES = {SAD: "sad", SSD: "ssd", SHD: "shd"}
 COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3  # the worker's steps (jit/sgm.py)
 
-# A band's two slabs (costs and sums) stay under this many bytes: at 1920 wide, d
-# 0..255 and 16-bit sums, 64 rows.
-BAND_BYTES = 64 << 20
+# A pair whose slabs (costs and sums) fit in this many bytes is one band, with no first
+# pass (KITTI's 1242 x 375 at d 0..191 with byte costs); a band never holds more.
+BAND_BYTES = 256 << 20
 
 
 def per_pixel_max(cost, pixels, bits=None):
@@ -145,10 +146,37 @@ def variants(largest_window=31, largest_penalty=10**7):
     return sorted(found)
 
 
-def band_rows(height, width, ndisp, itemsize, band_bytes):
-    """Rows per band: as many as keep a band's two slabs (``itemsize``: their bytes per
-    (pixel, d) together) under band_bytes, at least 1."""
-    return int(max(1, min(height, band_bytes // (width * ndisp * itemsize))))
+def memory(height, width, ndisp, window, paths, threads, band_bytes=None):
+    """Bytes a match_sgm of a pair this size holds beyond its images and maps, at most
+    (32-bit sums): the band's slabs, the paths' states and the down paths' states kept
+    at each band's start, and each thread's cost scratch (column sums and Hamming
+    costs' ring)."""
+    state = width * (ndisp + 2) * 4
+    down = 3 if paths == 8 else 1
+    rows = band_rows(height, width, ndisp, 8, down * state / width / ndisp, band_bytes)
+    kept = (math.ceil(height / rows) - 1) * down * state
+    scratch = threads * (width + window) * ndisp * (4 + window)
+    return rows * width * ndisp * 8 + 4 * down * state + kept + scratch
+
+
+# Bands are at least this tall where the pair is cut (each band's steps are calls of
+# their own, a few tens of microseconds each).
+MIN_BAND_ROWS = 32
+
+
+def band_rows(height, width, ndisp, itemsize, kept_itemsize, band_bytes=None):
+    """Rows per band.  All of them where the whole pair's slabs (``itemsize``: their
+    bytes per (pixel, d) together) fit in band_bytes (None: BAND_BYTES): one band, no
+    first pass.  Otherwise the height that holds the least memory, slabs and kept states
+    together (``kept_itemsize``: a kept state's bytes per (column, d)): B rows of slabs
+    and H / B kept rows, least at B = sqrt(H * kept / slab), so that memory grows with
+    the square root of the height; at least MIN_BAND_ROWS."""
+    band_bytes = BAND_BYTES if band_bytes is None else band_bytes
+    per_row = width * ndisp * itemsize
+    if height * per_row <= band_bytes:
+        return height
+    best = max(MIN_BAND_ROWS, round(math.sqrt(height * kept_itemsize / itemsize)))
+    return int(max(1, min(height, best, band_bytes // per_row)))
 
 
 def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
@@ -165,14 +193,14 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     into: as for kernels.fast.match_fast.  band_bytes: a band's memory (tests make it
     small to cut many bands; None: BAND_BYTES); workspace is not used (the bands are
     the match's own).
-    engine, tau, rule, csw_margin: the local engines' (taken, unused); CSW and row
-    samples are theirs only.
+    rows: as for match_fast, but every row is matched (the paths cross them all) and
+    the maps keep those asked for.  engine, tau, rule, csw_margin: the local engines'
+    (taken, unused); CSW is theirs only.
     Returns a MatchResult whose min_cost, second, prev and next costs are the
     aggregated sums S.
     """
-    if csw or rows is not None:
-        raise ValueError("semi-global matching takes every candidate of every row: no CSW, "
-                         "no row sample")
+    if csw:
+        raise ValueError("semi-global matching takes every candidate: no CSW")
     if paths not in PATHS:
         raise ValueError(f"paths must be one of {', '.join(map(str, PATHS))}, got {paths!r}")
     for name, value in (("P1", p1), ("P2", p2)):
@@ -181,10 +209,12 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     p1, p2 = int(p1), int(p2)
     if p1 > p2:
         raise ValueError(f"P1 ({p1}) must not exceed P2 ({p2})")
-    left, right, s, _ = validate(left, right, window=window, dmin=dmin, dmax=dmax,
-                                 cost=cost, csw=False, tau=-1, census_window=census_window,
-                                 census_pattern=census_pattern, extras=extras,
-                                 right_map=right_map, lr_check=lr_check)
+    left, right, s, rows = validate(left, right, rows=rows, window=window, dmin=dmin,
+                                    dmax=dmax,
+                                    cost=cost, csw=False, tau=-1,
+                                    census_window=census_window,
+                                    census_pattern=census_pattern, extras=extras,
+                                    right_map=right_map, lr_check=lr_check)
     height, width = left.shape
     ndisp = s.dmax - s.dmin + 1
     if ndisp > np.iinfo(np.int16).max:
@@ -216,9 +246,10 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     checked = s.lr_check >= 0
     lr_valid = output(into, "lr_valid", (height, width), np.uint8) if checked else \
         np.empty((1, width), np.uint8)
+    down = 3 if paths == 8 else 1
     rows_per_band = band_rows(height, width, ndisp,
                               acc.itemsize + cost_type(cmax, acc).itemsize,
-                              BAND_BYTES if band_bytes is None else band_bytes)
+                              down * acc.itemsize, band_bytes)
     bands = [(y0, min(y0 + rows_per_band, height)) for y0 in range(0, height, rows_per_band)]
     costs = np.empty((rows_per_band, width, ndisp), cost_type(cmax, acc))
     sums = np.empty((rows_per_band, width, ndisp), acc)
@@ -330,7 +361,10 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
             diagonal(y0, y1, ((down_l, down_l_mins), (down_r, down_r_mins)), 1, 1)
             diagonal(y0, y1, ((up_l, up_l_mins), (up_r, up_r_mins)), -1, 1)
         rows_step(SELECT, y0, y1, select_scratch)
-    plain = candidate_count(width, s.dmin, s.dmax) * height
+    if rows.size != height:  # the rows asked for, of the paths through every row
+        disp, min_cost = disp[rows], min_cost[rows]
+        *maps, lr_valid = (m[rows] if m.shape[0] == height else m for m in (*maps, lr_valid))
+    plain = candidate_count(width, s.dmin, s.dmax) * rows.size
     return result(disp, min_cost, plain, plain, s, maps,
                   lr_valid.view(np.bool_) if checked else None)
 

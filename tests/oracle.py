@@ -314,15 +314,12 @@ def sgm_sums(volume, paths, p1, p2):
                     continue
                 before = L[py, px]
                 least = before.min()
-                out = np.empty(ndisp, np.int64)
-                for k in range(ndisp):
-                    options = [before[k], least + p2]
-                    if k > 0:
-                        options.append(before[k - 1] + p1)
-                    if k < ndisp - 1:
-                        options.append(before[k + 1] + p1)
-                    out[k] = c[k] + min(options) - least
-                L[y, x] = out
+                # min(L(k), L(k - 1) + P1, L(k + 1) + P1, least + P2), the neighbours
+                # beyond the range left out
+                lower = np.r_[np.inf, before[:-1] + p1]
+                upper = np.r_[before[1:] + p1, np.inf]
+                best = np.minimum(np.minimum(before, least + p2), np.minimum(lower, upper))
+                L[y, x] = c + best.astype(np.int64) - least
         total += L
     return total
 

@@ -139,6 +139,7 @@ def test_real_pair_crop(data_dir):
     (dict(p1=10, p2=5), "must not exceed P2"),
     (dict(p1=-1), "P1 must be a whole number"),
     (dict(csw=True), "no CSW"),
+    (dict(rows=[3, 1]), "strictly increasing"),
 ])
 def test_bad_options_are_refused(bad, message):
     left = np.zeros((6, 10), np.uint8)

@@ -3,7 +3,9 @@ stripe reads.
 
 Rows are independent in CSW, so a stripe read with the rows above and below that the
 windows reach gives exactly the rows of a whole-image match (:func:`csw.matching.pipeline.
-row_overlap`).  The speckle filter and the median look across rows: when they are on, a
+row_overlap`).  Semi-global matching's paths cross every row: its stripes take
+csw.matching.stages.SGM_MARGIN rows more each side, and a few pixels near their edges
+may differ from the whole image's (reports/scale.md measures how many).  The speckle filter and the median look across rows: when they are on, a
 second pass reads the first pass's map back with the rows they need
 (:func:`csw.matching.pipeline.filter_overlap`), which makes them exact too.
 """
@@ -14,7 +16,7 @@ from dataclasses import dataclass
 
 from ...io.formats import TIFF_TILE
 from ...io.sources import open_source
-from ...kernels import runtime
+from ...kernels import runtime, sgm
 from ...matching.pipeline import filter_overlap, row_overlap
 from ...matching.stages import BAND_BYTES, MAP_BYTES, active, needs_extras
 
@@ -107,7 +109,10 @@ def plan(height, width, config, memory_limit=None, stripe_rows=None, threads=Non
     def need(rows):  # peak bytes of a stripe of ``rows`` core rows
         band1 = min(height, rows + 2 * over)
         band2 = min(height, rows + 2 * fover) if fover else 0
-        return max(fixed + per_row1 * band1, resident + per_row2 * band2, writing)
+        aggregated = sgm.memory(band1, width, config.dmax - config.dmin + 1, config.window,
+                                st.sgm_paths, threads) if st.aggregate == "sgm" else 0
+        return max(fixed + aggregated + per_row1 * band1, resident + per_row2 * band2,
+                   writing)
 
     smallest = min(height, config.window)
     if stripe_rows is None:
