@@ -5,7 +5,9 @@ Rows are independent in CSW, so a stripe read with the rows above and below that
 windows reach gives exactly the rows of a whole-image match (:func:`csw.matching.pipeline.
 row_overlap`).  Semi-global matching's paths cross every row: its stripes take
 csw.matching.stages.SGM_MARGIN rows more each side, and a few pixels near their edges
-may differ from the whole image's (reports/scale.md measures how many).  The speckle filter and the median look across rows: when they are on, a
+may differ from the whole image's (reports/scale.md measures how many).
+
+The speckle filter and the median look across rows: when they are on, a
 second pass reads the first pass's map back with the rows they need
 (:func:`csw.matching.pipeline.filter_overlap`), which makes them exact too.
 """
