@@ -308,7 +308,7 @@ def preview_image(rig, pair, step=32):
 def summary_lines(result):
     """The calibration as lines for a person: per view, rejected views, totals."""
     rig = result.rig
-    units = rig.units or "squares of the board (no units stated)"
+    units = rig.units or "(no units: --square gave none)"
     lines = [f"view {name}: reprojection RMS left {a:.3f} px, right {b:.3f} px"
              for name, a, b in result.views]
     lines += [f"rejected {name}: {why}" for name, why in result.rejected]

@@ -250,7 +250,7 @@ def _matrix(text, key, source, size):
 
 def _middlebury(text, source):
     """Middlebury 2014's calib.txt: cam0=[f 0 cx; 0 f cy; 0 0 1], cam1, doffs, baseline
-    (mm), width, height, ndisp, ..."""
+    (mm), width, height, ndisp, ..., and csw rectify's units= (mm, or none)."""
     values = dict(re.findall(r"^\s*(\w+)\s*=\s*(.+?)\s*$", text, re.MULTILINE))
     missing = [k for k in ("cam0", "baseline") if k not in values]
     if "doffs" not in values and "cam1" not in values:
@@ -264,9 +264,13 @@ def _middlebury(text, source):
     def whole(key):
         return _count(values[key], key, source) if key in values else None
 
+    # The baseline is in mm, or in the units= line csw rectify writes ("none": unknown).
+    units = values.get("units", "mm")
+    if units != "none" and units not in UNITS:
+        raise ValueError(f"{source}: unknown units {units!r}; use {', '.join(UNITS)} or none")
     return Calibration(cam0[0], _number(values["baseline"], "baseline", source), cam0[2],
-                       cam0[5], doffs, "mm", whole("width"), whole("height"), whole("ndisp"),
-                       source=source)
+                       cam0[5], doffs, None if units == "none" else units, whole("width"),
+                       whole("height"), whole("ndisp"), source=source)
 
 
 def _kitti(text, source):

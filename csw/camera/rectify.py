@@ -404,7 +404,9 @@ class Rectifier:
 
     def calib_text(self):
         """The rectified pair's calibration as a Middlebury calib.txt (baseline in mm where
-        the rig says its units, else in its own), for ``csw match`` beside the images."""
+        the rig says its units, else in its own), for ``csw match`` beside the images.
+        Its ``units=`` line (mm, or none: a key Middlebury's files don't have, which csw's
+        reader honours) keeps a rig without units from being read as mm."""
         from .calibration import UNITS
 
         c = self.calibration
@@ -412,7 +414,8 @@ class Rectifier:
         cam = f"[{c.focal:.10g} 0 {c.cx:.10g}; 0 {c.focal:.10g} {c.cy:.10g}; 0 0 1]"
         cam1 = f"[{c.focal:.10g} 0 {c.cx + c.doffs:.10g}; 0 {c.focal:.10g} {c.cy:.10g}; 0 0 1]"
         return (f"cam0={cam}\ncam1={cam1}\ndoffs={c.doffs:.10g}\n"
-                f"baseline={c.baseline * scale:.10g}\nwidth={c.width}\nheight={c.height}\n")
+                f"baseline={c.baseline * scale:.10g}\nwidth={c.width}\nheight={c.height}\n"
+                f"units={'mm' if c.units else 'none'}\n")
 
 
 def _folder(path):
