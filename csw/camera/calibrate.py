@@ -196,11 +196,9 @@ def row_error(rig, used, alpha=0.0):
     own rectification of ``rig`` (alpha as csw rectify's)."""
     from . import rectify as rx
 
-    fisheye = rig.model == "equidistant"
-    solve_ = rx.fisheye_stereo_rectify if fisheye else rx.stereo_rectify
-    r1, r2, p1, p2, _ = solve_(rig.k1, rig.d1, rig.k2, rig.d2, rig.size, rig.r, rig.t,
-                               max(alpha, 0.0) if fisheye else alpha)
-    move = rx.fisheye_undistort_points if fisheye else rx.undistort_points
+    r1, r2, p1, p2 = rx.rectification(rig, alpha)
+    move = rx.fisheye_undistort_points if rig.model == "equidistant" else \
+        rx.undistort_points
     rows = [(move(a, rig.k1, rig.d1, r1, p1), move(b, rig.k2, rig.d2, r2, p2))
             for _, a, b in used]
     diffs = np.concatenate([a[:, 1] - b[:, 1] for a, b in rows])

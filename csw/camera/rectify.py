@@ -309,6 +309,27 @@ def rectify_maps(k, distortion, r, p, size, threads=None):
                                   coefficients(distortion), size, threads)
 
 
+def rectification(rig, alpha=0.0):
+    """(R1, R2, P1, P2) of a rig: its file's where it gives them, else Bouguet's (fisheye:
+    OpenCV's fisheye.stereoRectify, alpha as its balance)."""
+    if rig.rectification is not None:
+        return tuple(np.asarray(m, np.float64) for m in rig.rectification)
+    fisheye = rig.model == "equidistant"
+    solve = fisheye_stereo_rectify if fisheye else stereo_rectify
+    return solve(rig.k1, rig.d1, rig.k2, rig.d2, rig.size, rig.r, rig.t,
+                 max(alpha, 0.0) if fisheye else alpha)[:4]
+
+
+def rectified_calibration(rig, p1, p2):
+    """The Calibration (csw.depth's, Q's) of a rig's pair rectified by P1, P2."""
+    from .calibration import Calibration
+
+    width, height = rig.size
+    return Calibration(float(p1[0, 0]), float(-(p2[0, 3] - p1[0, 3]) / p2[0, 0]),
+                       float(p1[0, 2]), float(p1[1, 2]), float(p2[0, 2] - p1[0, 2]),
+                       rig.units, width, height, source=f"{rig.source}, rectified")
+
+
 class Rectifier:
     """Rectifies a rig's raw pairs: the rectification computed once (or taken from the
     rig's file as given, so that it equals the calibrator's own), the undistort-rectify
@@ -326,19 +347,12 @@ class Rectifier:
     """
 
     def __init__(self, rig, alpha=0.0, threads=None):
-        from .calibration import Calibration
-
         if not (isinstance(alpha, (int, float)) and -1 <= alpha <= 1):
             raise ValueError(f"alpha must be a number from 0 to 1 (or -1: no scaling), got "
                              f"{alpha!r}")
         self.rig, self.alpha, self.threads = rig, alpha, threads
         fisheye = rig.model == "equidistant"
-        if rig.rectification is not None:
-            r1, r2, p1, p2 = (np.asarray(m, np.float64) for m in rig.rectification)
-        else:
-            solve = fisheye_stereo_rectify if fisheye else stereo_rectify
-            r1, r2, p1, p2, _ = solve(rig.k1, rig.d1, rig.k2, rig.d2, rig.size, rig.r,
-                                      rig.t, max(alpha, 0.0) if fisheye else alpha)
+        r1, r2, p1, p2 = rectification(rig, alpha)
         self.r1, self.r2, self.p1, self.p2 = r1, r2, p1, p2
         from ..kernels.remap import fixed_maps
 
@@ -351,11 +365,7 @@ class Rectifier:
             for k, d, rr, p in ((rig.k1, rig.d1, r1, p1), (rig.k2, rig.d2, r2, p2)))
         self.valid = tuple(f.valid.view(np.bool_) for f in self.fixed)
         self._all_valid = tuple(bool(v.all()) for v in self.valid)
-        focal = float(p1[0, 0])
-        self.calibration = Calibration(
-            focal, float(-(p2[0, 3] - p1[0, 3]) / p2[0, 0]), float(p1[0, 2]),
-            float(p1[1, 2]), float(p2[0, 2] - p1[0, 2]), rig.units, width, height,
-            source=f"{rig.source}, rectified")
+        self.calibration = rectified_calibration(rig, p1, p2)
 
     def rectify(self, left, right):
         """(left_r, right_r): a raw pair (uint8/uint16, gray (H, W) or colour (H, W, C),

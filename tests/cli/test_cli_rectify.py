@@ -202,3 +202,25 @@ def test_units_are_carried_through_rectify_never_invented(raw_pair, monkeypatch,
     assert legends == [expected, expected]
     assert ("units=none" if expected is None else "units=mm") in \
         (rect / "calib.txt").read_text()
+
+
+def test_calib_takes_a_rig_file_or_names_rig(raw_pair):
+    """One door: --calib reads every rig file (its rectified pair's geometry gives Q, as
+    csw rectify's calib.txt), or its one-line error names --rig."""
+    from rig_fixtures import ros_camera_info
+
+    from csw.camera.calibration import read_calibration
+
+    folder, rig = raw_pair
+    rect = Rectifier(rig)
+    assert read_calibration(folder / "stereo.yml").matrix().tolist() == \
+        rect.calibration.matrix().tolist()
+    csw.write_disparity(folder / "d.pfm", np.full(SIZE[::-1], 10, np.float32))
+    done = run("cloud", folder / "d.pfm", "--calib", folder / "stereo.yml", "-o",
+               folder / "c.ply")
+    assert done.exit_code == 0 and f"{SIZE[0] * SIZE[1]} points" in done.output, done.output
+    (folder / "left.yaml").write_text(ros_camera_info(rig.k1, rig.d1, rect.r1, rect.p1, SIZE))
+    done = run("cloud", folder / "d.pfm", "--calib", folder / "left.yaml", "-o",
+               folder / "c2.ply")
+    assert done.exit_code == 2 and "give it to --rig" in done.output
+    assert len(done.output.strip().splitlines()) == 1 and not (folder / "c2.ply").exists()
