@@ -273,8 +273,9 @@ def fisheye_stereo_rectify(k1, d1, k2, d2, size, r, t, balance=0.0):
     return r1, r2, p1, p2, q
 
 
-def fisheye_rectify_maps(k, distortion, r, p, size):
-    """(map_x, map_y), float32 (H, W), as cv2.fisheye.initUndistortRectifyMap (CV_32FC1)."""
+def fisheye_rectify_maps(k, distortion, r, p, size, dtype=np.float32):
+    """(map_x, map_y), float32 (H, W), as cv2.fisheye.initUndistortRectifyMap (CV_32FC1);
+    dtype float64: the doubles OpenCV rounds its fixed-point maps from."""
     width, height = size
     k = np.asarray(k, np.float64)
     k1, k2, k3, k4 = np.asarray(distortion, np.float64).ravel()
@@ -292,21 +293,23 @@ def fisheye_rectify_maps(k, distortion, r, p, size):
         scale = np.where(radius == 0, 1.0, theta_d / radius)
     map_x = k[0, 0] * x * scale + k[0, 2]
     map_y = k[1, 1] * y * scale + k[1, 2]
-    return map_x.astype(np.float32), map_y.astype(np.float32)
+    return map_x.astype(dtype), map_y.astype(dtype)
 
 
-def rectify_maps(k, distortion, r, p, size, threads=None):
+def rectify_maps(k, distortion, r, p, size, threads=None, dtype=np.float32):
     """(map_x, map_y), float32 (H, W) each: for every pixel of the rectified image, where
     it comes from in the raw image (cv2.initUndistortRectifyMap's maps, CV_32FC1; built
-    by the kernel csw.kernels.remap.undistort_rectify_maps).
+    by the kernel csw.kernels.remap.undistort_rectify_maps).  dtype float64: the doubles
+    OpenCV rounds its fixed-point maps (CV_16SC2) from, which the Rectifier rounds alike.
 
     k (3, 3), distortion: the raw camera; r (3, 3): its rectifying rotation; p (3, 3) or
     (3, 4): the rectified camera; size: (width, height) of the rectified image."""
     from ..kernels.remap import undistort_rectify_maps
 
     inverse = np.linalg.inv(np.asarray(p, np.float64)[:3, :3] @ np.asarray(r, np.float64))
-    return undistort_rectify_maps(inverse, np.asarray(k, np.float64),
+    maps = undistort_rectify_maps(inverse, np.asarray(k, np.float64),
                                   coefficients(distortion), size, threads)
+    return tuple(m.astype(dtype, copy=False) for m in maps)
 
 
 def rectification(rig, alpha=0.0):
@@ -357,10 +360,11 @@ class Rectifier:
         from ..kernels.remap import fixed_maps
 
         width, height = rig.size
-        # Only the fixed-point maps are kept: the float ones are a step to them.
+        # Only the fixed-point maps are kept: the float ones are a step to them, in double
+        # precision, rounded to 1/32 pixel as OpenCV's fixed-point maps are.
         self.fixed = tuple(
-            fixed_maps(*(fisheye_rectify_maps(k, d, rr, p, rig.size) if fisheye else
-                         rectify_maps(k, d, rr, p, rig.size, threads)),
+            fixed_maps(*(fisheye_rectify_maps(k, d, rr, p, rig.size, np.float64) if fisheye
+                         else rectify_maps(k, d, rr, p, rig.size, threads, np.float64)),
                        (height, width), threads)
             for k, d, rr, p in ((rig.k1, rig.d1, r1, p1), (rig.k2, rig.d2, r2, p2)))
         self.valid = tuple(f.valid.view(np.bool_) for f in self.fixed)
