@@ -41,13 +41,30 @@ def test_calibrate_then_rectify(boards, tmp_path):
                     "-O", tmp_path / "rect")
     assert rectified.exit_code == 0, rectified.output
     assert " mm, " in rectified.output
+    rect = tmp_path / "rect"
+    depths = {}
+    for units in ("mm", "m"):  # the rig's mm carried to depth; --units m converts
+        matched = run("match", rect / "left.png", rect / "right.png", "-o",
+                      tmp_path / "d.pfm", "--depth", tmp_path / f"z-{units}.pfm",
+                      "--overwrite", "--units", units)
+        assert matched.exit_code == 0, matched.output
+        assert "baseline 60" in matched.output and " mm," in matched.output, matched.output
+        depths[units] = csw.read_disparity(tmp_path / f"z-{units}.pfm")
+    found = np.isfinite(depths["mm"])
+    assert found.mean() > 0.1  # the board; the flat background has no match
+    np.testing.assert_allclose(depths["m"][found] * 1000, depths["mm"][found], rtol=1e-5)
+    cloud = run("cloud", tmp_path / "d.pfm", "--calib", rig, "-o", tmp_path / "c.ply",
+                "--units", "m")
+    assert cloud.exit_code == 0 and "mm" in cloud.output, cloud.output
 
 
 def test_a_board_not_found_is_reported_and_skipped(boards, tmp_path):
     for side in ("left", "right"):
         shutil.copytree(boards / side, tmp_path / side)
         write_png(tmp_path / side / "blank.png", np.full((360, 480), 128, np.uint8))
-    done = run("calibrate", tmp_path / "left", tmp_path / "right", "--board", "9x6",
+    (tmp_path / "pairs.csv").write_text("".join(
+        f"left/{p.name},right/{p.name}\n" for p in sorted((tmp_path / "left").iterdir())))
+    done = run("calibrate", "--manifest", tmp_path / "pairs.csv", "--board", "9x6",
                "--square", "0.025", "--units", "m", "-o", tmp_path / "rig.yml")
     assert done.exit_code == 0, done.output
     assert "rejected blank: no 9x6 board found in either image" in done.output
