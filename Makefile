@@ -4,7 +4,7 @@ PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
 .PHONY: run test coverage bench bench-batch bench-peers bench-scale bench-startup bench-stream tradeoff quality first-photo \
-	bench-rectify lint \
+	bench-rectify bench-calibrate lint \
 	format clean
 
 $(PY):
@@ -61,6 +61,11 @@ quality: $(VENV)/.installed-dev
 # CSW_CHESSBOARD_DIR holds OpenCV's stereo calibration sample: reports/rectify.md
 bench-rectify: $(VENV)/.installed-dev
 	$(PY) scripts/rectify_report.py
+
+# csw calibrate + csw rectify against OpenCV's calibrate-and-rectify chain, on the
+# chessboard pairs in CSW_CHESSBOARD_DIR (OpenCV's stereo sample): reports/calibrate.md
+bench-calibrate: $(VENV)/.installed-dev
+	$(PY) scripts/calibrate_report.py --label "OpenCV's stereo calibration sample"
 
 # Streams against StereoBM (frames a second, in process) and whole csw match runs on a
 # video against a short OpenCV script: reports/stream.md

@@ -18,6 +18,7 @@ COMMANDS = {
     "cloud": ("depth", "cloud", "Turn a disparity map into a point cloud (PLY)."),
     "rectify": ("rectify", "rectify", "Undistort and rectify a raw pair from a calibrated "
                                       "rig."),
+    "calibrate": ("calibrate", "calibrate", "Calibrate a stereo rig from chessboard pairs."),
     "synth": ("synth", "synth", "Write a synthetic stereo pair with exact ground truth."),
     "score": ("score", "score", "Score a disparity map against ground truth."),
     # ... then benchmarks, experiments and set-up.
@@ -29,7 +30,7 @@ COMMANDS = {
                                        "Docker)."),
 }
 # Listed as "Commands"; the rest after them.
-FIRST = ["match", "depth", "cloud", "rectify", "synth", "score"]
+FIRST = ["match", "depth", "cloud", "rectify", "calibrate", "synth", "score"]
 
 
 class LazyGroup(click.Group):

@@ -261,8 +261,9 @@ def calibration_options(beside_left=False):
     decorators = [
         click.option("--calib", type=click.Path(dir_okay=False),
                      help="The pair's calibration: a Middlebury calib.txt, a KITTI calib "
-                          "(P2/P3 or P_rect_02/03), an OpenCV YAML/XML with Q, or a 4x4 "
-                          f"Q in .npy{fallback}."),
+                          "(P2/P3 or P_rect_02/03), an OpenCV YAML/XML with Q, a 4x4 Q in "
+                          ".npy, or a one-file rig as --rig takes (rectified, alpha 0)"
+                          f"{fallback}."),
         click.option("--focal", type=float, help="Or by hand: the focal length (pixels)."),
         click.option("--baseline", type=float,
                      help="By hand: the baseline (depth comes out in its units)."),

@@ -38,14 +38,15 @@ class FixedMaps:
 
 
 def fixed_maps(map_x, map_y, raw, threads=None):
-    """The FixedMaps of float32 (H, W) maps (csw.camera.rectify.rectify_maps) for raw
-    images of shape ``raw`` (h, w), each at least 2 x 2: the point rounded to 1/32 pixel,
-    as cv2.remap does."""
+    """The FixedMaps of float64 or float32 (H, W) maps (csw.camera.rectify.rectify_maps)
+    for raw images of shape ``raw`` (h, w), each at least 2 x 2: the point rounded to
+    1/32 pixel as OpenCV rounds (float32 maps as cv2.remap, float64 ones as
+    initUndistortRectifyMap's fixed-point maps)."""
     height, width = raw
     if height < 2 or width < 2:
         raise ValueError(f"a raw image must be at least 2x2 to resample, got {width}x{height}")
-    map_x = np.ascontiguousarray(map_x, np.float32)
-    map_y = np.ascontiguousarray(map_y, np.float32)
+    map_x = np.ascontiguousarray(map_x, np.float64)
+    map_y = np.ascontiguousarray(map_y, np.float64)
     if map_x.shape != map_y.shape or map_x.ndim != 2:
         raise ValueError(f"the maps must be two (H, W) arrays of one shape, got "
                          f"{map_x.shape} and {map_y.shape}")
@@ -105,13 +106,13 @@ MAPS_WORK = 40
 
 
 def undistort_rectify_maps(inverse, camera, distortion, size, threads=None):
-    """(map_x, map_y), float32 (H, W) each, for a (width, height) ``size``: for each
+    """(map_x, map_y), float64 (H, W) each, for a (width, height) ``size``: for each
     rectified pixel (u, v), where it comes from in the raw image of a pinhole camera
     (``camera`` (3, 3), ``distortion`` (8,) k1 k2 p1 p2 k3 k4 k5 k6), ``inverse`` (3, 3)
     being (P R)^-1 (csw.camera.rectify.rectify_maps validates and calls it)."""
     width, height = size
-    map_x = np.empty((height, width), np.float32)
-    map_y = np.empty((height, width), np.float32)
+    map_x = np.empty((height, width), np.float64)
+    map_y = np.empty((height, width), np.float64)
     arrays = dict(inverse=np.ascontiguousarray(inverse, np.float64),
                   camera=np.ascontiguousarray(camera, np.float64),
                   distortion=np.ascontiguousarray(distortion, np.float64),

@@ -207,13 +207,38 @@ def read_calibration(path):
             return _kitti(text, str(path))
         if re.search(r"(^\s*Q\s*:|<Q[\s>])", text, re.MULTILINE):
             return from_q(_opencv_q(text, str(path)), str(path))
+        if re.search(RIG_KEYS, text, re.MULTILINE):
+            return _rig(path)
     except OptionError:
         raise
     except (ValueError, OverflowError) as exc:
         raise OptionError("calib", str(exc)) from None
     raise OptionError("calib", f"{path}: not a calibration csw knows (Middlebury calib.txt "
                                "with cam0=..., KITTI calib with P2:/P3: or P_rect_02/03, "
-                               "an OpenCV YAML/XML with a Q matrix, or a 4x4 .npy)")
+                               "an OpenCV YAML/XML with a Q matrix, a 4x4 .npy, or a rig "
+                               "file as --rig takes)")
+
+
+# What a rig file (csw.read_rig's formats) holds: OpenCV's M1..T, ROS camera_info,
+# Kalibr's camchain.
+RIG_KEYS = r"\b[MD][12]\b|^\s*camera_matrix\s*:|^\s*T_cn_cnm1\s*:"
+
+
+def _rig(path):
+    """The calibration of a rig file's pair once rectified (alpha 0, or as the file gives
+    R1 R2 P1 P2): what csw rectify's calib.txt would say.  ValueError naming --rig when
+    the file is a rig that one file can't give (ROS's two camera_info files, a size not
+    stated)."""
+    from .rectify import rectification, rectified_calibration
+    from .rig import read_rig
+
+    try:
+        rig = read_rig(path)
+    except ValueError as exc:
+        raise ValueError(f"{exc}; as a rig, give it to --rig (csw match or csw rectify)"
+                         ) from None
+    _, _, p1, p2 = rectification(rig)
+    return replace(rectified_calibration(rig, p1, p2), source=f"{path}, rectified")
 
 
 def _numbers(text):
@@ -250,7 +275,7 @@ def _matrix(text, key, source, size):
 
 def _middlebury(text, source):
     """Middlebury 2014's calib.txt: cam0=[f 0 cx; 0 f cy; 0 0 1], cam1, doffs, baseline
-    (mm), width, height, ndisp, ..."""
+    (mm), width, height, ndisp, ..., and csw rectify's units= (mm, or none)."""
     values = dict(re.findall(r"^\s*(\w+)\s*=\s*(.+?)\s*$", text, re.MULTILINE))
     missing = [k for k in ("cam0", "baseline") if k not in values]
     if "doffs" not in values and "cam1" not in values:
@@ -264,9 +289,13 @@ def _middlebury(text, source):
     def whole(key):
         return _count(values[key], key, source) if key in values else None
 
+    # The baseline is in mm, or in the units= line csw rectify writes ("none": unknown).
+    units = values.get("units", "mm")
+    if units != "none" and units not in UNITS:
+        raise ValueError(f"{source}: unknown units {units!r}; use {', '.join(UNITS)} or none")
     return Calibration(cam0[0], _number(values["baseline"], "baseline", source), cam0[2],
-                       cam0[5], doffs, "mm", whole("width"), whole("height"), whole("ndisp"),
-                       source=source)
+                       cam0[5], doffs, None if units == "none" else units, whole("width"),
+                       whole("height"), whole("ndisp"), source=source)
 
 
 def _kitti(text, source):

@@ -273,8 +273,9 @@ def fisheye_stereo_rectify(k1, d1, k2, d2, size, r, t, balance=0.0):
     return r1, r2, p1, p2, q
 
 
-def fisheye_rectify_maps(k, distortion, r, p, size):
-    """(map_x, map_y), float32 (H, W), as cv2.fisheye.initUndistortRectifyMap (CV_32FC1)."""
+def fisheye_rectify_maps(k, distortion, r, p, size, dtype=np.float32):
+    """(map_x, map_y), float32 (H, W), as cv2.fisheye.initUndistortRectifyMap (CV_32FC1);
+    dtype float64: the doubles OpenCV rounds its fixed-point maps from."""
     width, height = size
     k = np.asarray(k, np.float64)
     k1, k2, k3, k4 = np.asarray(distortion, np.float64).ravel()
@@ -292,21 +293,44 @@ def fisheye_rectify_maps(k, distortion, r, p, size):
         scale = np.where(radius == 0, 1.0, theta_d / radius)
     map_x = k[0, 0] * x * scale + k[0, 2]
     map_y = k[1, 1] * y * scale + k[1, 2]
-    return map_x.astype(np.float32), map_y.astype(np.float32)
+    return map_x.astype(dtype), map_y.astype(dtype)
 
 
-def rectify_maps(k, distortion, r, p, size, threads=None):
+def rectify_maps(k, distortion, r, p, size, threads=None, dtype=np.float32):
     """(map_x, map_y), float32 (H, W) each: for every pixel of the rectified image, where
     it comes from in the raw image (cv2.initUndistortRectifyMap's maps, CV_32FC1; built
-    by the kernel csw.kernels.remap.undistort_rectify_maps).
+    by the kernel csw.kernels.remap.undistort_rectify_maps).  dtype float64: the doubles
+    OpenCV rounds its fixed-point maps (CV_16SC2) from, which the Rectifier rounds alike.
 
     k (3, 3), distortion: the raw camera; r (3, 3): its rectifying rotation; p (3, 3) or
     (3, 4): the rectified camera; size: (width, height) of the rectified image."""
     from ..kernels.remap import undistort_rectify_maps
 
     inverse = np.linalg.inv(np.asarray(p, np.float64)[:3, :3] @ np.asarray(r, np.float64))
-    return undistort_rectify_maps(inverse, np.asarray(k, np.float64),
+    maps = undistort_rectify_maps(inverse, np.asarray(k, np.float64),
                                   coefficients(distortion), size, threads)
+    return tuple(m.astype(dtype, copy=False) for m in maps)
+
+
+def rectification(rig, alpha=0.0):
+    """(R1, R2, P1, P2) of a rig: its file's where it gives them, else Bouguet's (fisheye:
+    OpenCV's fisheye.stereoRectify, alpha as its balance)."""
+    if rig.rectification is not None:
+        return tuple(np.asarray(m, np.float64) for m in rig.rectification)
+    fisheye = rig.model == "equidistant"
+    solve = fisheye_stereo_rectify if fisheye else stereo_rectify
+    return solve(rig.k1, rig.d1, rig.k2, rig.d2, rig.size, rig.r, rig.t,
+                 max(alpha, 0.0) if fisheye else alpha)[:4]
+
+
+def rectified_calibration(rig, p1, p2):
+    """The Calibration (csw.depth's, Q's) of a rig's pair rectified by P1, P2."""
+    from .calibration import Calibration
+
+    width, height = rig.size
+    return Calibration(float(p1[0, 0]), float(-(p2[0, 3] - p1[0, 3]) / p2[0, 0]),
+                       float(p1[0, 2]), float(p1[1, 2]), float(p2[0, 2] - p1[0, 2]),
+                       rig.units, width, height, source=f"{rig.source}, rectified")
 
 
 class Rectifier:
@@ -326,36 +350,26 @@ class Rectifier:
     """
 
     def __init__(self, rig, alpha=0.0, threads=None):
-        from .calibration import Calibration
-
         if not (isinstance(alpha, (int, float)) and -1 <= alpha <= 1):
             raise ValueError(f"alpha must be a number from 0 to 1 (or -1: no scaling), got "
                              f"{alpha!r}")
         self.rig, self.alpha, self.threads = rig, alpha, threads
         fisheye = rig.model == "equidistant"
-        if rig.rectification is not None:
-            r1, r2, p1, p2 = (np.asarray(m, np.float64) for m in rig.rectification)
-        else:
-            solve = fisheye_stereo_rectify if fisheye else stereo_rectify
-            r1, r2, p1, p2, _ = solve(rig.k1, rig.d1, rig.k2, rig.d2, rig.size, rig.r,
-                                      rig.t, max(alpha, 0.0) if fisheye else alpha)
+        r1, r2, p1, p2 = rectification(rig, alpha)
         self.r1, self.r2, self.p1, self.p2 = r1, r2, p1, p2
         from ..kernels.remap import fixed_maps
 
         width, height = rig.size
-        # Only the fixed-point maps are kept: the float ones are a step to them.
+        # Only the fixed-point maps are kept: the float ones are a step to them, in double
+        # precision, rounded to 1/32 pixel as OpenCV's fixed-point maps are.
         self.fixed = tuple(
-            fixed_maps(*(fisheye_rectify_maps(k, d, rr, p, rig.size) if fisheye else
-                         rectify_maps(k, d, rr, p, rig.size, threads)),
+            fixed_maps(*(fisheye_rectify_maps(k, d, rr, p, rig.size, np.float64) if fisheye
+                         else rectify_maps(k, d, rr, p, rig.size, threads, np.float64)),
                        (height, width), threads)
             for k, d, rr, p in ((rig.k1, rig.d1, r1, p1), (rig.k2, rig.d2, r2, p2)))
         self.valid = tuple(f.valid.view(np.bool_) for f in self.fixed)
         self._all_valid = tuple(bool(v.all()) for v in self.valid)
-        focal = float(p1[0, 0])
-        self.calibration = Calibration(
-            focal, float(-(p2[0, 3] - p1[0, 3]) / p2[0, 0]), float(p1[0, 2]),
-            float(p1[1, 2]), float(p2[0, 2] - p1[0, 2]), rig.units, width, height,
-            source=f"{rig.source}, rectified")
+        self.calibration = rectified_calibration(rig, p1, p2)
 
     def rectify(self, left, right):
         """(left_r, right_r): a raw pair (uint8/uint16, gray (H, W) or colour (H, W, C),
@@ -404,7 +418,9 @@ class Rectifier:
 
     def calib_text(self):
         """The rectified pair's calibration as a Middlebury calib.txt (baseline in mm where
-        the rig says its units, else in its own), for ``csw match`` beside the images."""
+        the rig says its units, else in its own), for ``csw match`` beside the images.
+        Its ``units=`` line (mm, or none: a key Middlebury's files don't have, which csw's
+        reader honours) keeps a rig without units from being read as mm."""
         from .calibration import UNITS
 
         c = self.calibration
@@ -412,7 +428,8 @@ class Rectifier:
         cam = f"[{c.focal:.10g} 0 {c.cx:.10g}; 0 {c.focal:.10g} {c.cy:.10g}; 0 0 1]"
         cam1 = f"[{c.focal:.10g} 0 {c.cx + c.doffs:.10g}; 0 {c.focal:.10g} {c.cy:.10g}; 0 0 1]"
         return (f"cam0={cam}\ncam1={cam1}\ndoffs={c.doffs:.10g}\n"
-                f"baseline={c.baseline * scale:.10g}\nwidth={c.width}\nheight={c.height}\n")
+                f"baseline={c.baseline * scale:.10g}\nwidth={c.width}\nheight={c.height}\n"
+                f"units={'mm' if c.units else 'none'}\n")
 
 
 def _folder(path):

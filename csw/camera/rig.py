@@ -192,8 +192,22 @@ def _opencv(text, source, size):
                                 ("P2", (3, 4)))]
     rectification = tuple(given) if all(g is not None for g in given) else None
     model = "rational_polynomial" if max(d1.size, d2.size) >= 8 else "plumb_bob"
+    model = _opencv_word(text, "distortion_model") or model
+    units = _opencv_word(text, "units")
+    from .calibration import UNITS
+
+    if units not in (None, "none", *UNITS):
+        raise ValueError(f"{source}: unknown units {units!r}; csw reads {', '.join(UNITS)}")
     return Rig(k1, d1, k2, d2, r, t, _opencv_size(text, source, size), model,
-               rectification, None, source)
+               rectification, None if units == "none" else units, source)
+
+
+def _opencv_word(text, key):
+    """A FileStorage string by name (csw calibrate's units and distortion_model), or
+    None when absent."""
+    found = re.search(rf"^{key}\s*:\s*[\"']?(\w+)", text, re.MULTILINE) or \
+        re.search(rf"<{key}>\s*[\"']?(\w+)", text)
+    return found.group(1) if found else None
 
 
 def _rotation(vector, source):

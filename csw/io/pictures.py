@@ -58,10 +58,10 @@ def number(value):
     return f"{value:.1f}" if size >= 10 else f"{value:.3g}"
 
 
-def bar(width, low, high, label, reverse=False):
+def bar(width, low, high, label, reverse=False, note=None):
     """uint8 (h, width, 3): the colour bar of a picture ``width`` wide showing low..high:
     the ramp, TICKS values under it, and a line naming ``label`` (what and its units),
-    the range, and the invalid colour."""
+    the range (and ``note`` after it), and the invalid colour."""
     from PIL import Image, ImageDraw, ImageFont
 
     size = font_size(width)
@@ -87,7 +87,8 @@ def bar(width, low, high, label, reverse=False):
     y += size + margin // 2
     swatch = size
     draw.rectangle([left, y, left + swatch, y + swatch], fill=INVALID, outline=TEXT)
-    caption = f"invalid    {label}: {number(low)} .. {number(high)}"
+    caption = f"invalid    {label}: {number(low)} .. {number(high)}" + \
+        (f", {note}" if note else "")
     draw.text((left + swatch + margin // 2, y), caption, fill=TEXT, font=font)
     return np.asarray(canvas)
 
@@ -111,8 +112,12 @@ def depth_range(depth):
 
 def depth_picture(depth, units):
     """uint8 (H + bar, W, 3): a depth map (float32 (H, W), NaN invalid) in Turbo over its
-    1st to 99th percentile, near red and far blue, with its bar in ``units``."""
+    1st to 99th percentile, near red and far blue, with its bar in ``units``; the bar
+    says so where depths lie beyond that range (their colours clipped to its ends)."""
     near, far = depth_range(depth)
     label = f"depth ({units})" if units else "depth (the calibration's units)"
+    values = depth[np.isfinite(depth)]
+    clipped = bool(values.size) and (values.min() < near or values.max() > far)
     return np.vstack([colour(depth, near, far, reverse=True),
-                      bar(depth.shape[1], near, far, label, reverse=True)])
+                      bar(depth.shape[1], near, far, label, reverse=True,
+                          note="1st-99th percentile, clipped" if clipped else None)])

@@ -275,6 +275,7 @@ class _Run:
         self.preview_path, self.rate, self.progress = preview_video, rate, progress
         self.preview = None
         self.colours = DisparityColours()  # its arrays kept from frame to frame
+        self.bar_range = self.canvas = None  # the preview's colour bar, and its frame
         folder = summary.parent if summary is not None else None
         self.log = PairLog(folder if folder is not None else Path("."), 0)
         self.latency = array("d")
@@ -358,7 +359,22 @@ class _Run:
             picture = np.concatenate([left, picture], axis=1)
         if self.preview is None:
             self.preview = VideoWriter(self.preview_path, self.rate)
-        self.preview.write(picture)
+        self.preview.write(self.with_bar(picture))
+
+    def with_bar(self, picture):
+        """The frame with the still previews' colour bar under the map (disparity in
+        pixels over the range so far), drawn again only when the range grows."""
+        from ..io.pictures import BACKGROUND, bar
+
+        width, height = self.size
+        if self.bar_range != self.range:
+            strip = bar(width, *self.range, "disparity (pixels)")
+            self.canvas = np.empty((height + strip.shape[0], picture.shape[1], 4), np.uint8)
+            self.canvas[height:] = (*BACKGROUND, 255)
+            self.canvas[height:, -width:, :3] = strip
+            self.bar_range = list(self.range)
+        self.canvas[:height] = picture
+        return self.canvas
 
     def add(self, index, status, **fields):
         entry = {"name": FRAME_NAME.format(index=index), "frame": index, "status": status,

@@ -20,15 +20,15 @@ def spec(kind, pixels=None):
     """The worker of ``kind``: "remap" for images of type ``pixels`` (uint8 or uint16),
     "maps", or "fixed" (float maps into offsets and weights)."""
     if kind == "fixed":
-        arrays = (arg("map_x", np.float32, 2), arg("map_y", np.float32, 2),
+        arrays = (arg("map_x", np.float64, 2), arg("map_y", np.float64, 2),
                   arg("offset", np.uint32, 2), arg("weights", np.uint16, 2),
                   arg("valid", np.uint8, 2))
         return Spec(fixed, Signature(arrays, FIXED._fields))
     if kind == "maps":
         # inverse (3, 3) of P R; camera (3, 3) K; distortion (8,) k1 k2 p1 p2 k3 k4 k5 k6
         arrays = (arg("inverse", np.float64, 2), arg("camera", np.float64, 2),
-                  arg("distortion", np.float64, 1), arg("map_x", np.float32, 2),
-                  arg("map_y", np.float32, 2))
+                  arg("distortion", np.float64, 1), arg("map_x", np.float64, 2),
+                  arg("map_y", np.float64, 2))
         return Spec(maps, Signature(arrays, MAPS._fields))
     image = dtype_of(pixels)
     arrays = (arg("image", image, 1), arg("offset", np.uint32, 2),
@@ -85,26 +85,28 @@ def maps(inverse, camera, distortion, map_x, map_y, sc):
                 (1.0 + ((k6 * r2 + k5) * r2 + k4) * r2)
             xd = x * radial + p1 * xy2 + p2 * (r2 + 2.0 * x2)
             yd = y * radial + p1 * (r2 + 2.0 * y2) + p2 * xy2
-            map_x[v, u] = np.float32(fx * xd + skew * yd + cx)
-            map_y[v, u] = np.float32(fy * yd + cy)
+            map_x[v, u] = fx * xd + skew * yd + cx
+            map_y[v, u] = fy * yd + cy
     return 0
 
 
 @njit(**SERIAL)
 def fixed(map_x, map_y, offset, weights, valid, sc):
-    """Rows y0 <= y < y1 of the fixed maps of float32 maps (sc: FIXED; width, height:
+    """Rows y0 <= y < y1 of the fixed maps of float64 maps (sc: FIXED; width, height:
     the raw image's, each at least 2): valid where the point is inside the raw image; the
-    point rounded to 1/32 pixel (float32 arithmetic, then truncation); offset the flat
-    index of the top-left pixel blended, kept one short of the last column and row (a
-    point on them then takes weight 32 on the next pixel); weights wx | wy << 6."""
+    point rounded to 1/32 pixel as OpenCV rounds (cvRound: to the nearest, halves to
+    even; from the maps' doubles, as initUndistortRectifyMap makes its CV_16SC2 maps, and
+    exact for float32 maps, as cv2.remap rounds them); offset the flat index of the
+    top-left pixel blended, kept one short of the last column and row (a point on them
+    then takes weight 32 on the next pixel); weights wx | wy << 6."""
     width, height = sc[FIXED.width], sc[FIXED.height]
-    top_x, top_y = np.float32(width - 1), np.float32(height - 1)
+    top_x, top_y = np.float64(width - 1), np.float64(height - 1)
     for y in range(sc[FIXED.y0], sc[FIXED.y1]):
         for x in range(map_x.shape[1]):
             sx, sy = map_x[y, x], map_y[y, x]
             inside = 0.0 <= sx <= top_x and 0.0 <= sy <= top_y  # NaN: outside
-            ix = np.int64(sx * np.float32(32) + np.float32(0.5)) if inside else 0
-            iy = np.int64(sy * np.float32(32) + np.float32(0.5)) if inside else 0
+            ix = np.int64(np.rint(sx * 32.0)) if inside else 0
+            iy = np.int64(np.rint(sy * 32.0)) if inside else 0
             x0 = min(ix >> 5, width - 2)
             y0 = min(iy >> 5, height - 2)
             offset[y, x] = np.uint32(y0 * width + x0)

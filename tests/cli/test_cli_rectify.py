@@ -157,3 +157,70 @@ def test_no_output_may_replace_the_rig_file(raw_pair):
                "-o", folder / "d.pfm", "--rectified-left", oddly_named)
     assert done.exit_code == 2 and "rig.png" in done.output
     assert oddly_named.read_text().startswith("%YAML") and not (folder / "d.pfm").exists()
+
+
+def _words(text):
+    import re
+
+    return set(re.findall(r"[a-z]+", text))
+
+
+@pytest.mark.parametrize("units, expected", [(None, None), ("m", "mm")])
+def test_units_are_carried_through_rectify_never_invented(raw_pair, monkeypatch, units,
+                                                          expected):
+    """A rig without units gives no "mm" or "m" anywhere downstream: rectify's summary
+    and calib.txt, match --depth, depth, cloud, and the preview legends; a rig in m
+    says m, and its calib.txt mm (the baseline in mm, as Middlebury's) all the way on."""
+    from dataclasses import replace
+
+    from csw.camera.calibration import read_calibration
+    from csw.io import pictures
+
+    folder, rig = raw_pair
+    if units:
+        write_opencv(folder / "stereo.yml", replace(rig, units=units))
+        text = (folder / "stereo.yml").read_text() + f"units: {units}\n"
+        (folder / "stereo.yml").write_text(text)
+    legends = []
+    original = pictures.depth_picture
+    monkeypatch.setattr(pictures, "depth_picture",
+                        lambda z, u=None: legends.append(u) or original(z, u))
+    rect = folder / "rect"
+    outputs = [run("rectify", folder / "raw_l.png", folder / "raw_r.png", "--rig",
+                   folder / "stereo.yml", "-O", rect)]
+    assert read_calibration(rect / "calib.txt").units == expected
+    outputs.append(run("match", rect / "left.png", rect / "right.png", "-o", folder / "d.pfm",
+                       "--depth", folder / "z.pfm", "--depth-preview", folder / "z.png"))
+    outputs.append(run("depth", folder / "d.pfm", "--calib", rect / "calib.txt", "-o",
+                       folder / "z2.pfm", "--preview", folder / "z2.png"))
+    outputs.append(run("cloud", folder / "d.pfm", "--calib", rect / "calib.txt", "-o",
+                       folder / "c.ply"))
+    for done, unit in zip(outputs, [units, expected, expected, expected], strict=True):
+        assert done.exit_code == 0, done.output
+        said = _words(done.output) & {"mm", "m"}
+        assert said == ({unit} if unit else set()), done.output
+    assert legends == [expected, expected]
+    assert ("units=none" if expected is None else "units=mm") in \
+        (rect / "calib.txt").read_text()
+
+
+def test_calib_takes_a_rig_file_or_names_rig(raw_pair):
+    """One door: --calib reads every rig file (its rectified pair's geometry gives Q, as
+    csw rectify's calib.txt), or its one-line error names --rig."""
+    from rig_fixtures import ros_camera_info
+
+    from csw.camera.calibration import read_calibration
+
+    folder, rig = raw_pair
+    rect = Rectifier(rig)
+    assert read_calibration(folder / "stereo.yml").matrix().tolist() == \
+        rect.calibration.matrix().tolist()
+    csw.write_disparity(folder / "d.pfm", np.full(SIZE[::-1], 10, np.float32))
+    done = run("cloud", folder / "d.pfm", "--calib", folder / "stereo.yml", "-o",
+               folder / "c.ply")
+    assert done.exit_code == 0 and f"{SIZE[0] * SIZE[1]} points" in done.output, done.output
+    (folder / "left.yaml").write_text(ros_camera_info(rig.k1, rig.d1, rect.r1, rect.p1, SIZE))
+    done = run("cloud", folder / "d.pfm", "--calib", folder / "left.yaml", "-o",
+               folder / "c2.ply")
+    assert done.exit_code == 2 and "give it to --rig" in done.output
+    assert len(done.output.strip().splitlines()) == 1 and not (folder / "c2.ply").exists()

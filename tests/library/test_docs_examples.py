@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import tifffile
+from calib_fixtures import known_rig, views, write_views
 from layout_fixtures import kitti, middlebury2014
 from rig_fixtures import random_rig, raw_from_rectified, ros_camera_info, write_opencv
 
@@ -96,6 +97,7 @@ def workspace(tmp_path_factory):
     (root / "pairs.csv").write_text("".join(f"lefts/{n}.png,rights/{n}.png\n"
                                             for n in frames))
     raw_rig(root, left, right)
+    write_views(root, views(known_rig(), 6))  # left/, right/: chessboards for csw calibrate
     return root
 
 

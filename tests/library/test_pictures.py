@@ -61,3 +61,17 @@ def test_a_match_preview_is_the_picture_of_its_map(tmp_path):
                              preview=tmp_path / "p.png", dmax=20)
     np.testing.assert_array_equal(iio.imread(tmp_path / "p.png"),
                                   pictures.disparity_picture(result.disparity, 0, 20))
+
+
+def test_a_clipped_depth_bar_says_so():
+    ramp = np.linspace(1, 50, 200 * 60, dtype=np.float32).reshape(60, 200)
+    near, far = pictures.depth_range(ramp)
+    picture = pictures.depth_picture(ramp, "m")
+    clipped = pictures.bar(200, near, far, "depth (m)", reverse=True,
+                           note="1st-99th percentile, clipped")
+    np.testing.assert_array_equal(picture[60:], clipped)
+    flat = np.full((60, 200), 7, np.float32)  # nothing beyond the range: no note
+    np.testing.assert_array_equal(pictures.depth_picture(flat, "m")[60:],
+                                  pictures.bar(200, *pictures.depth_range(flat), "depth (m)",
+                                               reverse=True))
+    assert not np.array_equal(clipped, pictures.bar(200, near, far, "depth (m)", reverse=True))

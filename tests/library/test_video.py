@@ -9,6 +9,7 @@ from video_fixtures import damage_jpeg_frame, write_frames
 
 import csw
 from csw.data.synth import render, write_sequence
+from csw.io.pictures import bar
 from csw.io.video import VideoError, VideoReader, write_video
 from csw.scale.stream import DisparityColours, disparity_colours, match_video, video_frames
 
@@ -168,11 +169,13 @@ def test_the_preview_video_shows_the_map_beside_the_left_frame(tmp_path):
     frames = list(VideoReader(preview, colour=True))
     assert len(frames) == 6
     rgb = frames[0][2][..., :3]
-    assert rgb.shape == (H, 2 * W, 3)
+    strip = bar(W, 0, D, "disparity (pixels)")  # the still previews' bar, under the map
+    assert rgb.shape == (H + strip.shape[0] + strip.shape[0] % 2, 2 * W, 3)
     left, right = decoded_pairs(video)[0]
     expected = disparity_colours(csw.match(left, right, dmax=D).disparity, 0, D)[..., :3]
     # H.264 at quality 20: colours within a few levels on average.
-    assert np.abs(rgb[:, W:].astype(int) - expected).mean() < 8
+    assert np.abs(rgb[:H, W:].astype(int) - expected).mean() < 8
+    assert np.abs(rgb[H:H + strip.shape[0], W:].astype(int) - strip).mean() < 8
 
 
 def test_disparity_colours_are_the_pictures_turbo():
