@@ -1,6 +1,7 @@
 """Helpers shared by the kernels' workers: exact bit counts, the stop flag, the CSW
 claim test, the unique rule's distinctness test and the left-right check of a pixel."""
 
+import llvmlite.ir as ir
 import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic, overload
@@ -26,6 +27,32 @@ def _ctpop(typingctx, value):
 @overload(ctpop)
 def _ctpop_compiled(value):
     return lambda value: _ctpop(value)
+
+
+def prefetch(array, index):
+    """Ask the CPU to bring array[index] (a 1-D array) into its caches soon, for loops
+    that walk memory downwards, where its own prefetchers don't follow.  Compiled, this
+    is LLVM's prefetch (an instruction, no call); with NUMBA_DISABLE_JIT, nothing."""
+
+
+@intrinsic
+def _prefetch(typingctx, array, index):
+    def codegen(context, builder, signature, args):
+        data = context.make_array(signature.args[0])(context, builder, args[0]).data
+        byte_pointer = ir.IntType(8).as_pointer()
+        kind = ir.FunctionType(ir.VoidType(), [byte_pointer] + [ir.IntType(32)] * 3)
+        function = builder.module.declare_intrinsic("llvm.prefetch", fnty=kind)
+        flag = [ir.Constant(ir.IntType(32), v) for v in (0, 3, 1)]  # read, keep, data
+        builder.call(function, [builder.bitcast(builder.gep(data, [args[1]]), byte_pointer),
+                                *flag])
+        return context.get_dummy_value()
+
+    return types.void(array, index), codegen
+
+
+@overload(prefetch)
+def _prefetch_compiled(array, index):
+    return lambda array, index: _prefetch(array, index)
 
 
 def stop_requested(stop):

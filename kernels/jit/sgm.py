@@ -32,9 +32,13 @@ from numba import njit
 
 from ..config import SERIAL
 from ..signature import Signature, Spec, arg, scalar_index
-from .common import ctpop, dtype_of, keep_or_take, lr_agrees, stop_requested
+from .common import ctpop, dtype_of, keep_or_take, lr_agrees, prefetch, stop_requested
 
 COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3
+# Pixels ahead that the path from the right asks the caches for (it walks memory
+# downwards, where the CPU's prefetchers don't follow: on a Zen 1 core the path took
+# twice the time of the path from the left without them).
+AHEAD = 4
 
 SC = scalar_index(("step", "window", "dmin", "p1", "p2", "cmax", "never", "y0", "y1",
                    "band_y0", "x0", "x1", "direction", "add", "extras", "keep_right",
@@ -352,6 +356,12 @@ def _make(cost, cost_type, acc, negative):
             for i in range(width):
                 x = width - 1 - i
                 before, after = (i + 1) % 2, i % 2
+                if x >= AHEAD:  # this path walks memory downwards: see prefetch
+                    ahead_cost, ahead_sum = row[x - AHEAD], total[x - AHEAD]
+                    for k in range(0, ndisp, 64 // ahead_sum.itemsize):
+                        prefetch(ahead_sum, k)
+                    for k in range(0, ndisp, 64 // ahead_cost.itemsize):
+                        prefetch(ahead_cost, k)
                 least = path_step_into(line[before], least, row[x], line[after], total[x],
                                        1, p1, p2, never)
             if track_right:

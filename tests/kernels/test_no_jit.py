@@ -27,6 +27,15 @@ for dtype, scale in ((np.uint8, 1), (np.uint16, 300)):
                                                      rule=rule)
                 assert (got.disparity == disp).all(), (dtype, cost, engine, rule)
                 assert (got.min_cost == mins).all() and got.evaluated == evaluated
+from csw.kernels import sgm
+from oracle import sgm_match
+left, right = (rng.integers(0, 256, (5, 9)).astype(np.uint8) for _ in range(2))
+for cost, window, paths, dmin in (("census", 1, 4, 0), ("sad", 3, 8, -2)):
+    got = sgm.match_sgm(left, right, window=window, dmin=dmin, dmax=dmin + 4, cost=cost,
+                        paths=paths, p1=5, p2=40, census_window=3, census_pattern="dense",
+                        band_bytes=9 * 5 * 4 * 2)  # bands of two rows: both passes run
+    disp, mins, _ = sgm_match(left, right, window, dmin, dmin + 4, cost, paths, 5, 40, 3)
+    assert (got.disparity == disp).all() and (got.min_cost == mins).all(), (cost, paths)
 print("ok")
 """
 
