@@ -17,17 +17,13 @@ import time
 from pathlib import Path
 
 import numpy as np
+from peers import cv2, ndisp16, stereo_bm, whole_map
 
 from csw import kernels
 from csw.data import datasets as D
 from csw.data.synth import render
 from csw.eval.scoring import score
 from report_common import PEAK_PROBE, cpu_name, now_utc, peak_memory_mb
-
-try:
-    import cv2
-except ImportError:
-    sys.exit("bench_peers needs OpenCV: pip install 'csw[bench]'")
 
 THREADS = os.cpu_count() or 1
 PAIRS = [("tsukuba", 16), ("cones", 64), ("bowling1-half", 128), ("synthetic-1080p", 256)]
@@ -55,20 +51,6 @@ def load_pair(name, dmax=None):
     return pair.left, pair.right, pair.gt, {"all": pair.masks["all"]}
 
 
-def stereobm(ndisp, filters):
-    bm = cv2.StereoBM_create(numDisparities=ndisp, blockSize=9)
-    if not filters:
-        bm.setTextureThreshold(0)
-        bm.setUniquenessRatio(0)
-    return bm
-
-
-def bm_disparity(raw):
-    """StereoBM's int16 output (d * 16, negative = invalid) as int32 with -1 invalid."""
-    disp = raw.astype(np.int32)
-    return np.where(disp >= 0, (disp + 8) // 16, -1)  # nearest whole disparity
-
-
 def timed(fn):
     start = time.perf_counter()
     fn()
@@ -83,7 +65,7 @@ def bench_pair(name, ndisp, repeat):
             left, right, engine="fast", window=9, dmin=0, dmax=ndisp - 1, cost="sad",
             threads=t))
         for filters in (True, False):
-            bm = stereobm(ndisp, filters)
+            bm = stereo_bm(ndisp, filters=filters)
             label = f"bm{'' if filters else '-nofilter'} {threads}t"
             variants[label] = (threads, lambda b=bm: b.compute(left, right))
     outputs = {}
@@ -101,8 +83,8 @@ def bench_pair(name, ndisp, repeat):
            "mpd": left.size * ndisp / 1e6}
     if gt is not None:
         row["bad1_csw"] = score(outputs["csw 1t"].disparity, gt, regions)["all"]["bad"][1.0]
-        row["bad1_bm"] = score(bm_disparity(outputs["bm 1t"]), gt, regions)["all"]["bad"][1.0]
-        row["bad1_bm_nofilter"] = score(bm_disparity(outputs["bm-nofilter 1t"]), gt,
+        row["bad1_bm"] = score(whole_map(outputs["bm 1t"]), gt, regions)["all"]["bad"][1.0]
+        row["bad1_bm_nofilter"] = score(whole_map(outputs["bm-nofilter 1t"]), gt,
                                         regions)["all"]["bad"][1.0]
     return row
 
@@ -135,7 +117,7 @@ def pipeline_vs_bm(repeat, rounds=ROUNDS):
     for name, dmax, threads, presets in PIPELINE_CASES:
         print(f"bench-peers: pipeline on {name} ...", file=sys.stderr, flush=True)
         left, right, _, _ = load_pair(name, dmax)
-        bm = stereobm(-(-(dmax + 1) // 16) * 16, True)
+        bm = stereo_bm(ndisp16(dmax))
         cv2.setNumThreads(threads)
         for preset, target in presets.items():
             run = functools.partial(csw.match, left, right, dmax=dmax, threads=threads,

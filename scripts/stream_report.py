@@ -15,8 +15,8 @@ import tempfile
 import time
 from pathlib import Path
 
-import cv2
 import numpy as np
+from peers import cv2, ndisp16, stereo_bm
 
 import csw
 from csw.data.synth import render
@@ -48,7 +48,7 @@ def spread(values, digits=2):
 
 
 def bm_for(dmax):
-    return cv2.StereoBM_create(numDisparities=(dmax + 1 + 15) // 16 * 16, blockSize=9)
+    return stereo_bm(ndisp16(dmax))
 
 
 def frames_per_second(run, count):

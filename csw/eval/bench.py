@@ -21,7 +21,7 @@ from ..config.params import (
 from ..config.tau import resolve_tau
 from ..data.datasets import NOT_VERIFIED
 from ..matching.pipeline import run as run_pipeline
-from .scoring import THRESHOLDS, filled_bad, score
+from .scoring import THRESHOLDS, metric_for, score, summary
 
 RULE_LABELS = {None: "", "literal": " + CSW", "unique": " + CSW-unique"}
 
@@ -76,11 +76,13 @@ def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), ta
     height, width = pair.left.shape
     rows = []
     staged = stages.changed()
+    metric = metric_for(pair.layout)  # the pair's benchmark's own: KITTI's D1, else bad-2
     for (disp, result), variant, (tau_value, tau_source), secs in zip(runs, variants, taus,
                                                                       seconds, strict=True):
         is_csw = variant["csw"]
         rule = variant.get("rule")
         metrics = score(disp, pair.gt, pair.masks)
+        figures = summary(disp, pair.gt, pair.masks["all"], metric)
         paper_row = paper.TABLE2.get((ds.paper if ds else None, cost, is_csw)) \
             if rule in (None, "literal") else None
         rows.append({
@@ -88,7 +90,8 @@ def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), ta
             "size": f"{width}x{height}",
             "cost": cost,
             "csw": is_csw,
-            "algorithm": cost.upper() + RULE_LABELS[rule],
+            "algorithm": cost.upper() + (" + SGM" if stages.aggregate == "sgm" else "")
+            + RULE_LABELS[rule],
             "engine": engine,
             "rule": rule,
             "tau": tau_value,
@@ -100,9 +103,10 @@ def bench_rows(pair, *, cost, window, dmin, dmax, engine, rules=("literal",), ta
             "stages": staged,
             "error_rate": metrics["all"]["bad"][1.0],
             "bad": {f"{t:g}": metrics["all"]["bad"][t] for t in THRESHOLDS},
-            "density": metrics["all"]["density"],
-            "bad2_valid": metrics["all"]["bad_valid"][2.0],
-            "filled_bad2": filled_bad(disp, pair.gt, pair.masks["all"]),
+            "metric": metric,
+            "density": figures["density"],
+            "bad_valid": figures["bad_valid"],
+            "filled_bad": figures["filled"],
             "invalid": metrics["all"]["invalid"],
             "regions": {name: {"bad1": m["bad"][1.0], "pixels": m["pixels"],
                                "bad1_count": m["bad_count"][1.0]}
@@ -137,7 +141,7 @@ def paper_costs(pair):
 
 
 def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=None,
-              unique_tau=None, csw_margin=None, window=paper.WINDOW, dmin=0, dmax=None,
+              unique_tau=None, csw_margin=None, window=None, dmin=0, dmax=None,
               repeat=BENCH_REPEAT, threads=BENCH_THREADS, progress=None, stages=None):
     """What ``csw bench`` prints: bench rows for every pair, then, when pairs from folders
     (not the registry) number more than one, their totals.
@@ -146,8 +150,10 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
     preset: None or "paper" (the paper's method and settings), or one of
     csw.defaults.PRESETS for its stages and cost.  costs, engines, rules: lists, or None
     for the preset's.  stages: pipeline stage options over the preset's (see
-    csw.matching.pipeline).  dmax: None for each pair's own range (or the paper's with the paper
-    preset).  Returns (rows, caption).
+    csw.matching.pipeline).  window: None for the preset's.  dmax: None for each pair's own
+    range (or the paper's with the paper preset).  Presets that aggregate (sgm) get plain
+    rows only, on the fast engine: semi-global matching needs every cost, so CSW has
+    nothing to skip.  Returns (rows, caption).
     """
     from ..matching.pipeline import entries
 
@@ -156,11 +162,17 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
     stage_values = named.stages
     if costs is None and preset not in (None, "paper", "raw"):
         costs = [named.cost]
-    engines = engines or chosen["engines"]
-    rules = rules or chosen["rules"]
+    aggregated = stage_values.aggregate != "none"
+    if aggregated and "window" in (engines or ()):
+        raise ValueError("semi-global matching computes its own costs; drop the window "
+                         "engine")
+    engines = engines or (("fast",) if aggregated else chosen["engines"])
+    # CSW's skips are local matching's: an aggregating preset gets its plain rows only.
+    rules = () if aggregated else rules or chosen["rules"]
     tau = chosen["tau"] if tau is None else tau
-    if preset == "paper" and window != PRESETS["paper"]["window"]:
+    if preset == "paper" and window not in (None, PRESETS["paper"]["window"]):
         raise ValueError("the paper preset uses the paper's 9x9 window; drop the window")
+    window = named.window if window is None else window
     compiled = {}
     rows, registry, folder_rows, unverified = [], [], [], False
     for pair in pairs:
@@ -174,7 +186,8 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
                     args = dict(engine=engine, cost=cost, window=window, dmin=dmin)
                     compiled[key] = kernels.native.ensure(
                         entries(dict(args, csw=False), stage_values, pair.left.dtype) +
-                        entries(dict(args, csw=True), stage_values, pair.left.dtype))
+                        (entries(dict(args, csw=True), stage_values, pair.left.dtype)
+                         if rules else []))
                 new = bench_rows(pair, cost=cost, window=window, dmin=dmin, dmax=top,
                                  engine=engine, rules=rules, tau=tau, unique_tau=unique_tau,
                                  csw_margin=csw_margin, repeat=repeat, threads=threads,
@@ -188,6 +201,9 @@ def run_bench(pairs, *, preset=None, costs=None, engines=None, rules=None, tau=N
         rows += total_rows(folder_rows)
     text = caption(registry, preset == "paper", window, threads, repeat,
                    sum(compiled.values()))
+    if aggregated:
+        text += ("\nSemi-global matching needs every cost, so CSW has none to skip: plain "
+                 "rows only.")
     staged = stage_values.changed()
     if staged:
         text += ("\nPipeline stages around every row: "
@@ -235,10 +251,13 @@ def caption(datasets, preset_paper, window, threads, repeat, compile_s):
     lines = [f"CSW vs plain matching, {window}x{window} window, {threads} thread(s), "
              f"median of {repeat} interleaved runs after warm-up (compile/load "
              f"{compile_s:.2f} s, not included). Error rate: bad-1 (%) over all known "
-             "ground truth; invalid pixels count as bad. Work saved: share of candidate "
-             "costs CSW skipped. The window engine sums the full window per candidate (the "
-             "paper's method), so skipped candidates save time; the fast engine's running "
-             "sums compute every cost anyway, so CSW saves it no time."]
+             "ground truth; invalid pixels count as bad. Density, bad over valid and bad "
+             "filled (after the evaluation kits' background fill) by each benchmark's "
+             "measure (Metric): KITTI's D1 (error over 3 px and over 5% of the truth), "
+             "bad-2 elsewhere. Work saved: share of candidate costs CSW skipped. The "
+             "window engine sums the full window per candidate (the paper's method), so "
+             "skipped candidates save time; the fast engine's running sums compute every "
+             "cost anyway, so CSW saves it no time."]
     if preset_paper and any(ds.size_factor != 1 for ds in datasets):
         lines.append("The paper ran Wood, Baby and Bowling at full size with d 0..150; here "
                      "they exist only at reduced size, so the range is scaled by the size "

@@ -1,8 +1,9 @@
-"""Scoring disparity maps the Middlebury way.
+"""Scoring disparity maps the Middlebury way, and KITTI's.
 
 A pixel is bad-t when its disparity is invalid or differs from the ground truth by more
 than t pixels.  Invalid predictions count as bad, and are also reported on their own.
-MAE and RMS are over the valid predictions of the region.
+MAE and RMS are over the valid predictions of the region.  KITTI's D1 counts a pixel as
+bad when its error is over 3 px and over 5% of the true disparity (:func:`summary`).
 """
 
 import numpy as np
@@ -65,14 +66,57 @@ def score(disp, gt, regions, thresholds=THRESHOLDS):
             for name, mask in regions.items()}
 
 
-def filled_bad(disp, gt, region, threshold=2.0):
-    """bad-t (%) over ``region`` after the evaluation kits' background fill (csw.matching.pipeline's
-    fill="background"), the same fill for every method: invalid pixels take the smaller
-    nearest valid disparity on their row."""
+# KITTI's D1 (its devkit's ABS_THRESH and REL_THRESH): bad when both are exceeded.
+D1_PIXELS, D1_SHARE = 3.0, 0.05
+
+
+def metric_for(layout):
+    """The error measure a benchmark publishes for its pairs: KITTI's D1 for the KITTI
+    layouts, bad-2 for every other (Middlebury's, quarter-size 2014 included)."""
+    return "D1" if layout.startswith("kitti") else "bad-2"
+
+
+def errors(disp, gt, metric):
+    """Bool map: where ``disp`` is wrong under ``metric``, 'D1' or 'bad-T' (error over T
+    px).  NaN on either side compares False: the caller decides what invalid means."""
+    err = np.abs(disp - gt)
+    if metric == "D1":
+        return (err > D1_PIXELS) & (err > D1_SHARE * gt)
+    if metric.startswith("bad-"):
+        return err > float(metric[4:])
+    raise ValueError(f"unknown metric {metric!r}: use 'D1' or 'bad-T' (for example bad-2)")
+
+
+def summary(disp, gt, region, metric="bad-2"):
+    """One map's figures over ``region`` and known ground truth, in %: density (valid
+    share), bad_valid (bad among the valid), bad_all (invalid counting as bad) and filled
+    (bad_all after the evaluation kits' background fill, csw.matching.pipeline's
+    fill="background", the same for every method).  The one scoring csw bench and make
+    quality share, so every method is scored by the same code."""
     from ..kernels.filters import fill_background
 
-    filled = fill_background(as_float_disparity(disp, np.float32))
-    return score(filled, gt, {"r": region}, (threshold,))["r"]["bad"][threshold]
+    # float64 errors, as score() takes them; the fill works on float32 maps.
+    filled = fill_background(as_float_disparity(disp, np.float32)).astype(np.float64)
+    disp = as_float_disparity(disp)
+    gt = np.asarray(gt, dtype=np.float64)
+    known = region & np.isfinite(gt)
+    n = int(known.sum())
+    if n == 0:
+        return dict.fromkeys(("density", "bad_valid", "bad_all", "filled"), float("nan"))
+    valid = np.isfinite(disp) & known
+    bad = errors(disp, gt, metric) & known
+    n_valid = int(valid.sum())
+    return {"density": 100.0 * n_valid / n,
+            "bad_valid": 100.0 * bad.sum() / n_valid if n_valid else float("nan"),
+            "bad_all": 100.0 * (bad.sum() + n - n_valid) / n,
+            "filled": 100.0 * (errors(filled, gt, metric) | ~np.isfinite(filled))[known].sum()
+            / n}
+
+
+def filled_bad(disp, gt, region, threshold=2.0):
+    """bad-t (%) over ``region`` after the evaluation kits' background fill: invalid pixels
+    take the smaller nearest valid disparity on their row (see :func:`summary`)."""
+    return summary(disp, gt, region, f"bad-{threshold:g}")["filled"]
 
 
 def bad1_all(disp, pair):

@@ -14,9 +14,10 @@ COLUMNS = [
     ("engine", "Engine", 0),
     ("tau", "τ", 0),
     ("error_rate", "Error rate (%)", 2),
+    ("metric", "Metric", 0),
     ("density", "Density (%)", 1),
-    ("bad2_valid", "bad-2 valid (%)", 2),
-    ("filled_bad2", "bad-2 filled (%)", 2),
+    ("bad_valid", "Bad valid (%)", 2),
+    ("filled_bad", "Bad filled (%)", 2),
     ("time_s", "Time (s)", 4),
     ("time_reduced", "Time reduced (%)", 2),
     ("work_saved", "Work saved (%)", 2),
@@ -52,9 +53,10 @@ def literal_tau(ctx, param, value):
 @opt.option("csw_margin")
 @opt.option("preset", preset=params.EXPERIMENT_PRESET,
             help="paper: the paper's method and settings (window engine, literal rule, 9x9, "
-                 "its costs, disparity ranges and taus); raw or accurate: that pipeline (see "
-                 "csw match) around every row.")
-@opt.option("window", short="-w", default=params.DEFAULTS["window"])
+                 "its costs, disparity ranges and taus); raw, accurate or sgm: that pipeline "
+                 "(see csw match) around every row.")
+@opt.option("window", short="-w",
+            help="Odd window side [default: the preset's: 9, 5 for sgm].")
 @opt.option("dmin", default=params.DEFAULTS["dmin"])
 @opt.dataset_dmax_option
 @click.option("--repeat", type=click.IntRange(1, 1000), default=params.BENCH_REPEAT,
@@ -76,14 +78,16 @@ def bench(ctx, datasets, dataset_dirs, costs, engines, tau, csw_rules, unique_ta
     Datasets come from the registry (--dataset) or from benchmark folders as published
     (--dataset-dir: Middlebury 2014/2021 scenes, KITTI 2012/2015 training folders); a
     folder's rows end with a total over its scenes.  Density is the share of known pixels
-    with a disparity; bad-2 valid is over those; bad-2 filled after the evaluation kits'
-    background fill.
+    with a disparity; bad valid is over those; bad filled after the evaluation kits'
+    background fill; bad by the benchmark's measure (Metric): KITTI's D1, else bad-2.
+    Presets that aggregate (sgm) give plain rows only: CSW has no cost to skip there.
 
     \b
     Examples:
       csw bench --dataset tsukuba --preset paper
       csw bench -d synthetic -d cones --cost sad,ssd --tau auto --format json
       csw bench --dataset-dir MiddEval3/trainingQ --engine fast --csw-rule unique
+      csw bench --dataset-dir kitti2015 --preset sgm --dmax 191
     """
     def progress(step):
         click.echo(f"bench: {step}", err=True)

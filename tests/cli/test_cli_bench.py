@@ -170,3 +170,39 @@ def test_score_options_that_conflict_fail_before_any_download(tmp_path, monkeypa
                     "--data-dir", tmp_path / "empty")
     assert result.exit_code == 2 and "--gt-scale and --mask go with --gt" in result.output
     assert not (tmp_path / "cache").exists()
+
+
+def test_bench_scores_kitti_with_d1_and_middlebury_2014_with_bad_2(tmp_path):
+    """Folders as published, built on the fly; the sgm preset gets plain rows only (CSW
+    can't skip costs that semi-global matching needs), on its own 5x5 window."""
+    from layout_fixtures import kitti, middlebury2014
+
+    import csw
+    from csw.eval.scoring import summary
+
+    kitti(tmp_path / "kitti" / "training", frames=1)
+    middlebury2014(tmp_path / "mb" / "Scene", seed=3)
+    result = invoke("bench", "--dataset-dir", tmp_path / "kitti", "--dataset-dir",
+                    tmp_path / "mb", "--preset", "sgm", "--dmax", 31, "--repeat", 1,
+                    "--format", "json")
+    assert result.exit_code == 0, result.output
+    rows = json.loads(result.stdout)
+    assert [(r["dataset"], r["metric"], r["csw"], r["engine"], r["window"]) for r in rows
+            if r.get("metric")] == [("000000_10", "D1", False, "fast", 5),
+                                     ("Scene", "bad-2", False, "fast", 5)]
+    assert rows[0]["algorithm"] == "CENSUS + SGM"
+    for row, scene in zip(rows, [*csw.scan_folder(tmp_path / "kitti"),
+                                 *csw.scan_folder(tmp_path / "mb")], strict=False):
+        pair = scene.load()
+        disp = csw.match(pair.left, pair.right, preset="sgm", dmax=31, threads=1).disparity
+        want = summary(disp, pair.gt, pair.masks["all"], row["metric"])
+        assert row["density"] == pytest.approx(want["density"])
+        assert row["bad_valid"] == pytest.approx(want["bad_valid"])
+        assert row["filled_bad"] == pytest.approx(want["filled"])
+    text = invoke("bench", "--dataset-dir", tmp_path / "kitti", "--preset", "sgm", "--dmax",
+                  31, "--repeat", 1)
+    assert text.exit_code == 0, text.output
+    assert "plain rows only" in text.stdout and "D1" in text.stdout
+    window = invoke("bench", "--dataset-dir", tmp_path / "mb", "--preset", "sgm",
+                    "--engine", "window", "--repeat", 1)
+    assert window.exit_code != 0 and "computes its own costs" in window.output

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from csw.eval.scoring import score
+from csw.eval.scoring import metric_for, score, summary
 
 
 def test_bad_thresholds_invalid_mae_rms_by_hand():
@@ -41,3 +41,29 @@ def test_integer_maps_with_minus_one_are_invalid_and_regions_apply():
 def test_shape_mismatch_is_reported():
     with pytest.raises(ValueError, match="ground truth"):
         score(np.zeros((2, 2)), np.zeros((3, 2)), {"all": np.ones((3, 2), bool)})
+
+
+def test_kitti_d1_and_bad_3_differ_by_hand():
+    """D1 needs both: an error over 3 px and over 5% of the truth."""
+    gt = np.array([[10.0, 100.0, 100.0, 50.0],
+                   [np.nan, 20.0, 20.0, 20.0]])
+    # errors:        4 (40%)  4 (4%)  6 (6%)  invalid
+    #                unknown  0       3.5 (17.5%)  0.5
+    disp = np.array([[14.0, 104.0, 106.0, np.nan],
+                     [5.0, 20.0, 23.5, 20.5]])
+    region = np.ones(gt.shape, bool)
+    d1, bad3 = summary(disp, gt, region, "D1"), summary(disp, gt, region, "bad-3")
+    assert d1["density"] == bad3["density"] == pytest.approx(100 * 6 / 7)
+    # bad-3: 4, 4, 6 and 3.5 over 6 valid; D1 spares the 4 px error on 100 (4%).
+    assert bad3["bad_valid"] == pytest.approx(100 * 4 / 6)
+    assert d1["bad_valid"] == pytest.approx(100 * 3 / 6)
+    assert d1["bad_all"] == pytest.approx(100 * 4 / 7)  # the invalid pixel counts as bad
+    # Filled: the hole at the row's end takes its one valid neighbour, 106 (error 56).
+    assert d1["filled"] == pytest.approx(100 * 4 / 7)
+    assert bad3["filled"] == pytest.approx(100 * 5 / 7)
+    assert summary(disp, gt, region)["bad_valid"] == pytest.approx(100 * 4 / 6)  # bad-2
+    assert (metric_for("kitti2015"), metric_for("kitti2012"),
+            metric_for("middlebury2014"), metric_for("registry")) == \
+        ("D1", "D1", "bad-2", "bad-2")
+    with pytest.raises(ValueError, match="unknown metric"):
+        summary(disp, gt, region, "D2")
