@@ -4,7 +4,7 @@ PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
 .PHONY: run test coverage bench bench-batch bench-peers bench-scale bench-startup bench-stream tradeoff quality first-photo \
-	bench-rectify bench-calibrate lint \
+	bench-rectify bench-calibrate bench-sgm lint \
 	format clean
 
 $(PY):
@@ -71,6 +71,11 @@ bench-calibrate: $(VENV)/.installed-dev
 # video against a short OpenCV script: reports/stream.md
 bench-stream: $(VENV)/.installed-dev
 	$(PY) scripts/stream_report.py
+
+# Semi-global matching against SGBM and StereoBM: speed, streams, memory, stripes:
+# reports/sgm.md
+bench-sgm: $(VENV)/.installed-dev
+	$(PY) scripts/sgm_report.py --output reports/sgm.md
 
 # Three photograph-like pairs no test uses, matched with no range given: reports/first-photo.md
 first-photo: $(VENV)/.installed-dev

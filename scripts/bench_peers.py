@@ -17,12 +17,12 @@ import time
 from pathlib import Path
 
 import numpy as np
-from peers import cv2, ndisp16, stereo_bm, whole_map
 
 from csw import kernels
 from csw.data import datasets as D
 from csw.data.synth import render
 from csw.eval.scoring import score
+from peers import cv2, ndisp16, stereo_bm, whole_map
 from report_common import PEAK_PROBE, cpu_name, now_utc, peak_memory_mb
 
 THREADS = os.cpu_count() or 1

@@ -16,16 +16,16 @@ import time
 from pathlib import Path
 
 import numpy as np
-import peers
-from peers import cv2
 
 import csw
+import peers
 from csw.data import datasets as D
 from csw.data import layouts
 from csw.data.synth import render
 from csw.eval.scoring import metric_for, score, summary
 from csw.io import as_float_disparity, colorize
 from csw.kernels.runtime import default_threads
+from peers import cv2
 from report_common import cpu_name, fmt, now_utc, peak_memory_mb
 
 CLASSIC = ["tsukuba", "venus", "sawtooth", "cones", "teddy"]

@@ -16,13 +16,13 @@ import time
 from pathlib import Path
 
 import numpy as np
-from peers import cv2, ndisp16, stereo_bm
 
 import csw
 from csw.data.synth import render
 from csw.io.images import luma
 from csw.kernels import native
 from csw.matching.matcher import STREAM_STRIPES_WORK
+from peers import cv2, ndisp16, stereo_bm
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
