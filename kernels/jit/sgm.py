@@ -428,10 +428,20 @@ def _make(cost, cost_type, acc, negative):
                         d_r[k] = keep_or_take(d_r[k], k, v < kept)
                         best_r[k] = min(v, kept)
                 if extras:
+                    # The least total 2 or more from first: one plain minimum with the
+                    # three around first set aside, then put back (a test per k, or two
+                    # loops on either side, stayed scalar: a third of the rows' time).
+                    a0, hi = max(int(first) - 1, lo), min(int(first) + 2, n)
+                    mid = min(a0 + 1, hi - 1)
+                    kept0, kept1, kept2 = t[a0], t[mid], t[hi - 1]
+                    for k in range(a0, hi):
+                        t[k] = never
                     other = never
                     for k in range(lo, n):
-                        if abs(k - first) >= 2:
-                            other = min(other, t[k])
+                        other = min(other, t[k])
+                    t[hi - 1] = kept2  # in reverse: where indices coincide, values agree
+                    t[mid] = kept1
+                    t[a0] = kept0
                     second[y, x] = -1 if other == never else np.int64(other)
                     prev[y, x] = -1 if first == lo else np.int64(t[first - 1])
                     nxt[y, x] = -1 if first + 1 >= n else np.int64(t[first + 1])
