@@ -27,7 +27,7 @@ from report_common import PEAK_PROBE, cpu_name, now_utc, peak_memory_mb
 try:
     import cv2
 except ImportError:
-    sys.exit("bench_peers needs OpenCV: pip install 'csw[bench]'")
+    sys.exit("bench_peers needs OpenCV: pip install '.[bench]'")
 
 THREADS = os.cpu_count() or 1
 PAIRS = [("tsukuba", 16), ("cones", 64), ("bowling1-half", 128), ("synthetic-1080p", 256)]

@@ -26,7 +26,7 @@ from report_common import cpu_name, fmt, now_utc, peak_memory_mb
 try:
     import cv2
 except ImportError:
-    sys.exit("quality_report needs OpenCV: pip install 'csw[bench]'")
+    sys.exit("quality_report needs OpenCV: pip install '.[bench]'")
 
 CLASSIC = ["tsukuba", "venus", "sawtooth", "cones", "teddy"]
 DATASETS = [*CLASSIC, "wood1", "baby1", "bowling1", "baby1-half", "bowling1-half",
