@@ -127,7 +127,8 @@ def test_wheel_installs_no_top_level_kernels(tmp_path):
     root = Path(csw.__file__).parent.parent
     subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w",
                     str(tmp_path), str(root)], check=True, capture_output=True, timeout=600)
-    (wheel,) = tmp_path.glob("csw-*.whl")
+    (wheel,) = tmp_path.glob("*.whl")
+    assert wheel.name.startswith("csw_stereo-")  # the distribution: PyPI's csw is another
     names = zipfile.ZipFile(wheel).namelist()
     tops = {n.split("/")[0] for n in names if not n.split("/")[0].endswith(".dist-info")}
     assert tops == {"csw", "csw_cli"}
