@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test test-newest-numba coverage bench bench-batch bench-peers bench-scale bench-startup bench-stream tradeoff quality first-photo \
+.PHONY: run test test-quick test-newest-numba coverage bench bench-batch bench-peers bench-scale bench-startup bench-stream tradeoff quality first-photo \
 	bench-rectify lint \
 	format clean
 
@@ -32,6 +32,10 @@ run: $(VENV)/.installed-base
 
 test: $(VENV)/.installed-test
 	scripts/test.sh
+
+# The suite less the tests marked slow (pyproject.toml's markers).
+test-quick: $(VENV)/.installed-test
+	scripts/test.sh -m "not slow"
 
 # The quick suite in a venv of its own with the newest Numba the index has, above
 # pyproject's bound: what to run before raising that bound.

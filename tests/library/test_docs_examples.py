@@ -32,13 +32,16 @@ SKIP = {
                               "(tests/library/test_compile_all.py checks what it compiles)",
 }
 NEEDS_DATA = re.compile(r"--dataset (?!synthetic)|(^|\s)-d \w|load_dataset\(\"(?!synthetic)")
+# Examples that take seconds or more: compiling, a cluster, a benchmark, rigs, video.
+SLOW = re.compile(r"csw compile|--workers|csw bench|--rig|--frames")
 
 WIDTH, HEIGHT, DMAX = 450, 375, 15  # d*16 fits an 8-bit PGM, as Tsukuba's truth does
 BASELINE_M, FOCAL = 0.1, 450.0
 
 
 def examples():
-    return [pytest.param(page, found.group(1), found.group(2), id=f"{page.name}-{number}")
+    return [pytest.param(page, found.group(1), found.group(2), id=f"{page.name}-{number}",
+                         marks=[pytest.mark.slow] if SLOW.search(found.group(2)) else [])
             for page in PAGES
             for number, found in enumerate(FENCE.finditer(page.read_text()), 1)]
 
