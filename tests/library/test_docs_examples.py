@@ -65,7 +65,9 @@ def workspace(tmp_path_factory):
     """The files the examples name, built once."""
     root = tmp_path_factory.mktemp("docs")
     left, right, gt, _ = render(WIDTH, HEIGHT, dmax=DMAX, seed=7)
-    for a, b in (("left.png", "right.png"), ("im0.png", "im1.png"), ("imL.png", "imR.png")):
+    (root / "out" / "synthetic").mkdir(parents=True)  # where make run puts its pair
+    for a, b in (("left.png", "right.png"), ("im0.png", "im1.png"), ("imL.png", "imR.png"),
+                 ("out/synthetic/left.png", "out/synthetic/right.png")):
         write_png(root / a, left)
         write_png(root / b, right)
     (root / "calib.txt").write_text(calib_text(WIDTH, HEIGHT, DMAX))  # Middlebury, mm
