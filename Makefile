@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test coverage bench bench-batch bench-peers bench-scale bench-startup bench-stream tradeoff quality first-photo \
+.PHONY: run test test-quick test-newest-numba coverage bench bench-batch bench-peers bench-scale bench-startup bench-stream tradeoff quality first-photo \
 	bench-rectify bench-calibrate bench-sgm lint \
 	format clean
 
@@ -32,6 +32,21 @@ run: $(VENV)/.installed-base
 
 test: $(VENV)/.installed-test
 	scripts/test.sh
+
+# The suite less the tests marked slow (pyproject.toml's markers).
+test-quick: $(VENV)/.installed-test
+	scripts/test.sh -m "not slow"
+
+# The quick suite in a venv of its own with the newest Numba the index has, above
+# pyproject's bound: what to run before raising that bound.
+NEWEST_NUMBA := .venv-newest-numba
+test-newest-numba:
+	python3 -m venv $(NEWEST_NUMBA)
+	$(NEWEST_NUMBA)/bin/python -m pip install -q --upgrade pip
+	PYTHONWARNINGS=ignore::UserWarning $(NEWEST_NUMBA)/bin/python -m pip install -q -e '.[test]'
+	$(NEWEST_NUMBA)/bin/python -m pip install -q --upgrade numba llvmlite
+	$(NEWEST_NUMBA)/bin/python -c "from importlib.metadata import version; print('numba', version('numba'))"
+	PATH=$(abspath $(NEWEST_NUMBA))/bin:$$PATH scripts/test.sh -m "not slow"
 
 coverage: $(VENV)/.installed-test
 	scripts/coverage.sh
@@ -88,5 +103,5 @@ format: $(VENV)/.installed-dev
 	ruff check --fix . && ruff format .
 
 clean:
-	rm -rf $(VENV) out build *.egg-info .pytest_cache .hypothesis
+	rm -rf $(VENV) $(NEWEST_NUMBA) out build *.egg-info .pytest_cache .hypothesis
 	find . -name __pycache__ -type d -prune -exec rm -rf {} +

@@ -101,7 +101,7 @@ def __getattr__(name):
         from importlib.metadata import PackageNotFoundError, version
 
         try:
-            value = version("csw")
+            value = version("csw-stereo")  # the distribution, not the import name
         except PackageNotFoundError:  # a source tree that was not installed
             value = "0.0.0+unknown"
     else:

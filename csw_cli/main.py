@@ -65,7 +65,7 @@ class LazyGroup(click.Group):
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(package_name="csw", prog_name="csw")
+@click.version_option(package_name="csw-stereo", prog_name="csw")
 def cli():
     """Stereo matching with the Constrained Sliding Window (CSW) algorithm.
 

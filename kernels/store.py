@@ -51,8 +51,12 @@ def target_cpu():
 
 def _fingerprint():
     """A name for everything the compiled code depends on: the kernel sources, Python,
-    llvmlite (which fixes Numba's version), the CPU and Numba's CPU settings."""
+    Numba and llvmlite, the CPU and Numba's CPU settings.  Numba's version is read from
+    its metadata: a warm run never imports Numba.  One llvmlite release serves several
+    Numba releases, whose code generation differs."""
     if "value" not in _FINGERPRINT:
+        from importlib.metadata import version
+
         import llvmlite
         import llvmlite.binding as llvm
 
@@ -61,7 +65,8 @@ def _fingerprint():
                            for p in KERNEL_SOURCES.glob(pattern)):
             name = path.relative_to(KERNEL_SOURCES).as_posix()
             digest.update(name.encode() + b"\0" + path.read_bytes())
-        for part in (sys.version, llvmlite.__version__, llvm.get_host_cpu_name(),
+        for part in (sys.version, version("numba"), llvmlite.__version__,
+                     llvm.get_host_cpu_name(),
                      llvm.get_host_cpu_features().flatten(),
                      os.environ.get("NUMBA_CPU_NAME", ""),
                      os.environ.get("NUMBA_CPU_FEATURES", ""),

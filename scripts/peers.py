@@ -13,7 +13,7 @@ import numpy as np
 try:
     import cv2
 except ImportError:
-    sys.exit("the peer reports need OpenCV: pip install 'csw[bench]'")
+    sys.exit("the peer reports need OpenCV: pip install '.[bench]'")
 
 # OpenCV's stereo_match sample for a gray pair (cn = 1, block 5): P1 = 8 * cn * block^2,
 # P2 = 32 * cn * block^2, its prefilter cap, uniqueness, speckle and left-right settings.

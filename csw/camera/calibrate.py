@@ -8,7 +8,7 @@ image size and the units of T), which :func:`csw.read_rig` and cv2.FileStorage r
 >>> result.rms, result.row_error, result.rejected
 >>> write_rig_file("rig.yml", result)
 
-OpenCV is an optional extra (``pip install 'csw[calibrate]'``): a chessboard detector is
+OpenCV is an optional extra (``pip install 'csw-stereo[calibrate]'``): a chessboard detector is
 not this project's job.
 """
 
@@ -32,7 +32,7 @@ def _cv2():
     try:
         import cv2
     except ImportError:
-        raise ImportError("csw calibrate needs OpenCV: pip install 'csw[calibrate]'") from None
+        raise ImportError("csw calibrate needs OpenCV: pip install 'csw-stereo[calibrate]'") from None
     return cv2
 
 

@@ -11,7 +11,8 @@ def pyplot():
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        raise ImportError("plots need matplotlib: pip install 'csw[plot]'") from None
+        raise ImportError("plots need matplotlib: pip install 'csw-stereo[plot]' "
+                          "(from a checkout: '.[plot]')") from None
     return plt
 
 

@@ -11,7 +11,7 @@ gray matched is the same either way.
 PyAV rather than imageio's ffmpeg plugin: imageio-ffmpeg pipes raw frames through a
 subprocess, which costs a copy of every frame through a pipe and keeps no errors per
 frame; PyAV decodes in this process, reports a damaged packet as an exception of its
-own, and its wheels carry FFmpeg, so ``pip install csw[video]`` needs nothing else.
+own, and its wheels carry FFmpeg, so ``pip install 'csw-stereo[video]'`` needs nothing else.
 """
 
 import os
@@ -46,8 +46,8 @@ def _av():
     try:
         import av
     except ImportError:
-        raise VideoError("reading and writing video needs PyAV: pip install 'csw[video]'") \
-            from None
+        raise VideoError("reading and writing video needs PyAV: "
+                         "pip install 'csw-stereo[video]' (from a checkout: '.[video]')") from None
     # FFmpeg's own log lines ("No JPEG data found in image") would come on stderr beside
     # csw's one line per lost frame, which says the same with the frame's number.
     av.logging.set_level(av.logging.PANIC)

@@ -1,6 +1,6 @@
 """Dask clusters for csw: a local one started for a batch, or an existing one by address.
 
-Dask is an optional extra (``pip install 'csw[dask]'``); only this module and the
+Dask is an optional extra (``pip install 'csw-stereo[dask]'``); only this module and the
 executor (csw.scale.executor, given a client) import it.
 Each worker is a process with one task thread; Numba's threads are split so that the
 workers together use the machine's cores once.
@@ -15,7 +15,8 @@ def _dask():
     try:
         import dask.distributed as distributed
     except ImportError:
-        raise ImportError("running on a cluster needs Dask: pip install 'csw[dask]'") from None
+        raise ImportError("running on a cluster needs Dask: pip install 'csw-stereo[dask]' "
+                          "(from a checkout: '.[dask]')") from None
     return distributed
 
 

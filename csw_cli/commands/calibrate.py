@@ -37,7 +37,7 @@ def calibrate(left, right, manifest, board, square, units, model, output, previe
               min_views):
     """Calibrate a stereo rig from chessboard pairs: LEFT and RIGHT folders (paired by
     file name, as csw match pairs them) or --manifest.  OpenCV finds the corners and
-    solves (pip install 'csw[calibrate]'); csw rectifies the corners with the result
+    solves (pip install 'csw-stereo[calibrate]'); csw rectifies the corners with the result
     and reports how far apart their rows stay.  Pairs whose board isn't found are
     reported and left out.
 

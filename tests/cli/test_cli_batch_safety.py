@@ -175,6 +175,7 @@ PATHS = st.sampled_from(["l.png", "r.png", "out/l.png", "../l.png", "missing.png
                          "out/summary.json"])
 
 
+@pytest.mark.slow
 @settings(deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture,
                                  HealthCheck.too_slow])

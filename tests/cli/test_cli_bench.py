@@ -31,6 +31,7 @@ def synthetic_bench():
     return json.loads(result.stdout)
 
 
+@pytest.mark.slow
 def test_bench_json_schema(synthetic_bench):
     assert len(synthetic_bench) == 12  # 2 costs x 2 engines x (plain, literal, unique)
     assert [r["engine"] for r in synthetic_bench[:6]] == ["window"] * 3 + ["fast"] * 3
@@ -53,6 +54,7 @@ def test_bench_json_schema(synthetic_bench):
     assert [r["csw"] for r in synthetic_bench] == [False, True, True] * 4
 
 
+@pytest.mark.slow
 def test_bench_rows_equal_the_kernels_own_output(synthetic_bench):
     pair = D.load("synthetic")
     for row in synthetic_bench:
@@ -77,6 +79,7 @@ def test_bench_rows_equal_the_kernels_own_output(synthetic_bench):
         assert row["invalid"] == pytest.approx(metrics["all"]["invalid"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fmt", ["table", "github", "latex", "csv"])
 def test_bench_human_formats(fmt):
     result = invoke("bench", "-d", "synthetic", "--repeat", 1, "--dmax", 16, "--window", 3,
@@ -88,6 +91,7 @@ def test_bench_human_formats(fmt):
         assert lines[0].startswith("Image,Algorithm,Engine") and len(lines) == 5
 
 
+@pytest.mark.slow
 @pytest.mark.data
 def test_bench_paper_preset_on_tsukuba(data_dir):
     result = invoke("bench", "-d", "tsukuba", "--preset", "paper", "--cost", "sad,ssd,shd",
@@ -154,6 +158,7 @@ def test_hist_shows_the_rule_tau():
     assert len(result.stdout.strip().splitlines()) == 2 + 2 + 10
 
 
+@pytest.mark.slow
 def test_hist_plot(tmp_path):
     pytest.importorskip("matplotlib")
     result = invoke("hist", "-d", "synthetic", "--dmax", 16, "--window", 3, "--plot",

@@ -251,6 +251,7 @@ def test_temporaries_of_a_killed_process_are_swept_by_the_next_run(pair_files, t
 CSW = [sys.executable, "-c", "from csw_cli.main import main; main()"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
 def test_sigterm_and_sighup_behave_like_ctrl_c(tmp_path, signum):
     rng = np.random.default_rng(0)

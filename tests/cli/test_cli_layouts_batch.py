@@ -94,6 +94,7 @@ def test_batch_usage_errors(tmp_path, args, message):
     assert result.exit_code == 2 and message in result.output
 
 
+@pytest.mark.slow
 def test_bench_tau_words():
     """--tau none reached float("none"), and 'paper' was rejected though advertised."""
     none = invoke("bench", "-d", "synthetic", "--tau", "none", "--engine", "fast",
@@ -106,6 +107,7 @@ def test_bench_tau_words():
     assert json.loads(paper.stdout)[1]["tau_source"] == "auto (no paper value)"
 
 
+@pytest.mark.slow
 @pytest.mark.data
 def test_preset_paper_prints_the_six_tsukuba_rows(data_dir):
     result = invoke("bench", "-d", "tsukuba", "--preset", "paper", "--repeat", 1,
@@ -119,6 +121,7 @@ def test_preset_paper_prints_the_six_tsukuba_rows(data_dir):
     assert rows[0]["error_rate"] == pytest.approx(11.02, abs=0.01)  # reports/table2.md
 
 
+@pytest.mark.slow
 def test_wheel_installs_no_top_level_kernels(tmp_path):
     """An unrelated PyPI package is called 'kernels': the wheel must not install one."""
     import zipfile
@@ -127,7 +130,8 @@ def test_wheel_installs_no_top_level_kernels(tmp_path):
     root = Path(csw.__file__).parent.parent
     subprocess.run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w",
                     str(tmp_path), str(root)], check=True, capture_output=True, timeout=600)
-    (wheel,) = tmp_path.glob("csw-*.whl")
+    (wheel,) = tmp_path.glob("*.whl")
+    assert wheel.name.startswith("csw_stereo-")  # the distribution: PyPI's csw is another
     names = zipfile.ZipFile(wheel).namelist()
     tops = {n.split("/")[0] for n in names if not n.split("/")[0].endswith(".dist-info")}
     assert tops == {"csw", "csw_cli"}

@@ -204,6 +204,7 @@ def test_synth_bad_input(tmp_path, args, message):
     assert result.exit_code == 2 and message in result.output
 
 
+@pytest.mark.slow
 def test_installed_entry_point_runs_as_a_process(pair_files, tmp_path):
     exe = shutil.which("csw", path=os.path.dirname(sys.executable)) or shutil.which("csw")
     assert exe, "the csw console script is not installed"

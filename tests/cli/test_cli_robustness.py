@@ -44,6 +44,7 @@ def png_bytes(width, height, bit_depth=8, colour=0, payload=b""):
             + chunk(b"IEND", b""))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("output", [["d.pfm"], ["d.tif", "--memory-limit", "16MB"]],
                          ids=["whole", "stripes"])
 def test_ctrl_c_stops_a_long_match_at_once(tmp_path, output):
@@ -260,6 +261,7 @@ mutations = dict(
                                  b"Pf\n3 3\ninf\n"]))
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(**mutations)

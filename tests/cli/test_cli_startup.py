@@ -46,6 +46,7 @@ def run(folder, cache, output, *extra):
     return subprocess.run(args, env=env, capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.slow
 def test_the_first_run_says_it_compiles_and_later_runs_are_quiet(scene):
     first = run(scene, scene / "cache", scene / "a.pfm")
     assert first.returncode == 0, first.stderr
@@ -61,6 +62,7 @@ def test_the_first_run_says_it_compiles_and_later_runs_are_quiet(scene):
     assert (scene / "a.pfm").read_bytes() == (scene / "b.pfm").read_bytes()
 
 
+@pytest.mark.slow
 def test_csw_compile_fills_the_cache_for_every_preset(scene):
     env = dict(os.environ, CSW_KERNEL_CACHE=str(scene / "cache"))
     ahead = subprocess.run([sys.executable, "-m", "csw_cli", "compile", "--preset", "raw"],
@@ -74,6 +76,7 @@ def test_csw_compile_fills_the_cache_for_every_preset(scene):
     assert again.stderr.splitlines()[-1].startswith("0 kernel(s) compiled")
 
 
+@pytest.mark.slow
 def test_processes_that_start_together_compile_once(scene):
     started = []
     for i in range(3):
@@ -86,6 +89,7 @@ def test_processes_that_start_together_compile_once(scene):
     assert len(maps) == 1
 
 
+@pytest.mark.slow
 def test_a_compile_killed_half_way_leaves_a_cache_that_works(scene):
     args, env = csw_command(scene, scene / "cache", scene / "killed.pfm", "--cost", "shd")
     victim = subprocess.Popen(args, env=env, stderr=subprocess.PIPE, text=True)

@@ -16,6 +16,7 @@ def invoke(*args):
     return CliRunner().invoke(cli, [str(a) for a in args])
 
 
+@pytest.mark.slow
 def test_sweep_rows_match_the_kernels(tmp_path):
     result = invoke("sweep", "-d", "synthetic", "--dmax", 24, "--window", 5, "--tau-range",
                     "0.5x,200,none", "--csw-margin", "8,20", "--format", "json")
@@ -38,6 +39,7 @@ def test_sweep_rows_match_the_kernels(tmp_path):
         assert row["delta"] == pytest.approx(row["error_rate"] - rows[0]["error_rate"])
 
 
+@pytest.mark.slow
 def test_sweep_plot(tmp_path):
     pytest.importorskip("matplotlib")
     result = invoke("sweep", "-d", "synthetic", "--dmax", 16, "--window", 3, "--tau-range",

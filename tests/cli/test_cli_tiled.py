@@ -79,6 +79,7 @@ def test_a_tiff_that_is_not_one(tmp_path, pair):
     assert "Traceback" not in result.output and files_in(tmp_path / "out") == []
 
 
+@pytest.mark.slow
 def test_the_stripes_of_one_pair_on_a_local_cluster(tmp_path, pair):
     pytest.importorskip("dask.distributed")
     invoke("match", *pair, "-o", tmp_path / "whole.pfm", "--dmax", DMAX)

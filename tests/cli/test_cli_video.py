@@ -110,6 +110,7 @@ def test_a_damaged_frame_fails_alone_and_exits_1(tmp_path):
     assert (tmp_path / "maps" / "000005.pfm").exists()
 
 
+@pytest.mark.slow
 def test_ctrl_c_keeps_the_frames_written_and_marks_the_summary(tmp_path):
     sbs_mjpeg(tmp_path / "v.avi", 3000, width=320, height=240, dmax=31)
     command = [*CSW, "match", "v.avi", "--sbs", "--dmax", "31", "--threads", "1"]

@@ -48,6 +48,7 @@ def assert_same(got, want):
         np.testing.assert_array_equal(getattr(got, name), values, err_msg=name)
 
 
+@pytest.mark.slow
 @settings(deadline=None)
 @given(seed=st.integers(0, 2**31), cost=st.sampled_from(["sad", "census", "shd", "ssd"]),
        census_kind=st.sampled_from([(3, "dense"), (5, "dense"), (7, "dense"), (5, "sparse"),

@@ -31,6 +31,7 @@ def check_pair(pair, cost, window=9):
     assert 0 < csw.work_saved < 1  # the CSW run really skipped work
 
 
+@pytest.mark.slow
 @pytest.mark.data
 @pytest.mark.parametrize("name", sorted(D.DATASETS))
 def test_engines_equal_on_every_dataset(name, data_dir):
@@ -38,12 +39,14 @@ def test_engines_equal_on_every_dataset(name, data_dir):
     check_pair(pair, "sad")
 
 
+@pytest.mark.slow
 @pytest.mark.data
 @pytest.mark.parametrize("cost", ["ssd", "shd"])
 def test_engines_equal_on_tsukuba_other_costs(cost, data_dir):
     check_pair(D.load("tsukuba", data_dir, allow_download=False), cost)
 
 
+@pytest.mark.slow
 def test_engines_equal_on_synthetic_16_bit_with_dmin():
     pair = D.load("synthetic")
     left, right = pair.left.astype(np.uint16) * 257, pair.right.astype(np.uint16) * 251

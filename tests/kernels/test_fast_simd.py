@@ -12,6 +12,7 @@ import pytest
 from csw.kernels import fast
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(platform.machine() not in ("x86_64", "AMD64"), reason="x86 mnemonics")
 def test_column_update_uses_16_bit_vector_lanes():
     import numpy as np

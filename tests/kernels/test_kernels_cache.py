@@ -25,6 +25,7 @@ def probe(cache):
     return json.loads(out.stdout.strip().splitlines()[-1]), out.stderr
 
 
+@pytest.mark.slow
 def test_a_second_process_loads_without_compiling_or_numba(tmp_path):
     first, told = probe(tmp_path)
     assert first["compiled"] == 1 and first["numba"]
@@ -58,6 +59,7 @@ def two_entries(cache, mode):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow
 def test_missing_entries_compile_in_worker_processes_or_here_if_they_fail(tmp_path):
     """With two cores or more, missing entries compile in worker processes (this one
     never imports Numba); when the workers fail, this process compiles them itself, and
@@ -79,6 +81,7 @@ def test_missing_entries_compile_in_worker_processes_or_here_if_they_fail(tmp_pa
         assert len([name for name in stored if name != "gil-helpers"]) == 3
 
 
+@pytest.mark.slow
 def test_compile_workers_ignore_a_package_of_the_same_name_in_the_current_folder(tmp_path):
     """A source checkout's csw/ in the current folder must not reach the compile workers:
     they would compile its kernels into this process's cache."""
@@ -115,6 +118,7 @@ def map_probe(cache, umask=None):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("damage", ["truncated code", "flipped byte", "truncated json",
                                     "foreign json"])
 def test_a_damaged_cache_entry_is_found_and_rebuilt(tmp_path, damage):
@@ -138,6 +142,7 @@ def test_a_damaged_cache_entry_is_found_and_rebuilt(tmp_path, damage):
     assert map_probe(tmp_path)["compiled"] == 0  # and it stays rebuilt
 
 
+@pytest.mark.slow
 def test_cache_files_are_never_writable_by_others_whatever_the_umask(tmp_path):
     map_probe(tmp_path / "cache", umask=0)
     paths = [tmp_path / "cache", *(tmp_path / "cache").rglob("*")]
@@ -146,6 +151,7 @@ def test_cache_files_are_never_writable_by_others_whatever_the_umask(tmp_path):
     assert loose == []
 
 
+@pytest.mark.slow
 def test_an_entry_writable_by_others_is_not_loaded(tmp_path):
     map_probe(tmp_path)
     code = next(tmp_path.rglob("window-*.o"))
@@ -221,6 +227,7 @@ except RuntimeError as exc:
 """
 
 
+@pytest.mark.slow
 def test_a_worker_that_raises_is_an_error_not_an_abort(tmp_path):
     """Loaded without Numba, an entry that reaches Numba's raise path returns, and the
     call raises a RuntimeError saying so (its helpers once pointed at abort())."""
@@ -233,6 +240,7 @@ def test_a_worker_that_raises_is_an_error_not_an_abort(tmp_path):
     assert called.stdout.startswith("False 7 csw's kernel probe failed: it reached Numba's")
 
 
+@pytest.mark.slow
 def test_a_worker_that_allocates_is_refused_when_it_compiles(tmp_path):
     """No Numba runtime is loaded with the entries, so none may allocate: the compile
     refuses one that does, in one line."""
@@ -243,6 +251,7 @@ def test_a_worker_that_allocates_is_refused_when_it_compiles(tmp_path):
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_a_worker_that_needs_a_numba_helper_on_its_way_is_refused(tmp_path):
     """A kernel loaded without Numba has only the GIL's helpers and its error path's
     stand-ins: a worker that calls another Numba helper on its normal path (reshape's

@@ -37,10 +37,14 @@ def assert_equal_to_oracle(engine, left, right, **kw):
     assert got.evaluated == evaluated
 
 
+SLOW = pytest.mark.slow  # the oracle is plain Python: make test-quick keeps 8-bit SAD, window 3
+
+
 @pytest.mark.parametrize("engine", ENGINES)
-@pytest.mark.parametrize("cost", ["sad", "ssd", "shd"])
-@pytest.mark.parametrize("window", [1, 3, 9])
-@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+@pytest.mark.parametrize("cost", ["sad", pytest.param("ssd", marks=SLOW),
+                                  pytest.param("shd", marks=SLOW)])
+@pytest.mark.parametrize("window", [pytest.param(1, marks=SLOW), 3, pytest.param(9, marks=SLOW)])
+@pytest.mark.parametrize("dtype", [np.uint8, pytest.param(np.uint16, marks=SLOW)])
 def test_matches_oracle_plain_and_csw(engine, cost, window, dtype):
     rng = np.random.default_rng(window * 7 + len(cost))
     left, right = random_pair(rng, 11, 23, dtype, shift=2, noise=20)
@@ -61,6 +65,7 @@ def test_matches_oracle_plain_and_csw(engine, cost, window, dtype):
                                        csw_margin=csw_margin, slack=slack)
 
 
+@pytest.mark.slow
 @settings(deadline=None)  # examples per run: see the profiles in conftest.py
 @given(
     engine=st.sampled_from(ENGINES),

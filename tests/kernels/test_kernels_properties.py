@@ -81,6 +81,7 @@ def test_negative_tau_is_plain_matching(engine, scene):
     assert plain.evaluated == csw.evaluated == plain.candidates
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
 def test_evaluated_count_equals_oracle_on_scene_rows(engine, scene):
     left, right, _, _ = scene

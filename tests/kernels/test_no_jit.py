@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 PROBE = """
 import sys, warnings
 import numpy as np
@@ -40,6 +42,7 @@ print("ok")
 """
 
 
+@pytest.mark.slow
 def test_kernels_equal_the_oracle_with_the_jit_off():
     tests = str(Path(__file__).parent.parent)  # where oracle.py is
     env = dict(os.environ, NUMBA_DISABLE_JIT="1")

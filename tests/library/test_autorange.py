@@ -31,6 +31,7 @@ def test_a_featureless_pair_is_a_clear_error():
         csw.match(flat, flat, dmax="auto")
 
 
+@pytest.mark.slow
 @pytest.mark.data
 @pytest.mark.parametrize("name", csw.dataset_names())
 def test_every_dataset_covered_and_as_accurate_with_no_range_given(data_dir, name):
@@ -44,6 +45,7 @@ def test_every_dataset_covered_and_as_accurate_with_no_range_given(data_dir, nam
     assert abs(a["bad_valid"][2.0] - o["bad_valid"][2.0]) <= 0.5
 
 
+@pytest.mark.slow
 def test_no_range_given_means_found_from_the_pair_but_the_paper_keeps_its_own():
     left, right, gt, _ = csw.synthetic_pair(320, 200, dmax=40, seed=2)
     found = csw.match(left, right)
@@ -71,6 +73,7 @@ def _dmin_bound_holds(chosen, disparities, dmin, dmax):
     return first - slack <= chosen <= first + 1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("width, height, top, seed", [(200, 150, 20, 4), (320, 240, 40, 1),
                                                       (450, 375, 64, 0), (640, 480, 64, 2),
                                                       (1024, 768, 120, 3)])
@@ -80,6 +83,7 @@ def test_dmin_auto_fits_synthetic_scenes(width, height, top, seed):
     assert _dmin_bound_holds(s["dmin"], gt, s["dmin"], s["dmax"]), s
 
 
+@pytest.mark.slow
 @pytest.mark.data
 @pytest.mark.parametrize("name", csw.dataset_names())
 def test_dmin_auto_fits_every_dataset(data_dir, name):

@@ -15,6 +15,7 @@ from csw.data.synth import render
 from csw.io import read_disparity, write_png
 
 distributed = pytest.importorskip("dask.distributed")
+pytestmark = pytest.mark.slow  # a cluster starts in seconds
 
 
 @pytest.fixture(scope="module")

@@ -33,13 +33,16 @@ SKIP = {
                               "(tests/library/test_compile_all.py checks what it compiles)",
 }
 NEEDS_DATA = re.compile(r"--dataset (?!synthetic)|(^|\s)-d \w|load_dataset\(\"(?!synthetic)")
+# Examples that take seconds or more: compiling, a cluster, a benchmark, rigs, video.
+SLOW = re.compile(r"csw compile|--workers|csw bench|--rig|--frames")
 
 WIDTH, HEIGHT, DMAX = 450, 375, 15  # d*16 fits an 8-bit PGM, as Tsukuba's truth does
 BASELINE_M, FOCAL = 0.1, 450.0
 
 
 def examples():
-    return [pytest.param(page, found.group(1), found.group(2), id=f"{page.name}-{number}")
+    return [pytest.param(page, found.group(1), found.group(2), id=f"{page.name}-{number}",
+                         marks=[pytest.mark.slow] if SLOW.search(found.group(2)) else [])
             for page in PAGES
             for number, found in enumerate(FENCE.finditer(page.read_text()), 1)]
 
@@ -63,7 +66,9 @@ def workspace(tmp_path_factory):
     """The files the examples name, built once."""
     root = tmp_path_factory.mktemp("docs")
     left, right, gt, _ = render(WIDTH, HEIGHT, dmax=DMAX, seed=7)
-    for a, b in (("left.png", "right.png"), ("im0.png", "im1.png"), ("imL.png", "imR.png")):
+    (root / "out" / "synthetic").mkdir(parents=True)  # where make run puts its pair
+    for a, b in (("left.png", "right.png"), ("im0.png", "im1.png"), ("imL.png", "imR.png"),
+                 ("out/synthetic/left.png", "out/synthetic/right.png")):
         write_png(root / a, left)
         write_png(root / b, right)
     (root / "calib.txt").write_text(calib_text(WIDTH, HEIGHT, DMAX))  # Middlebury, mm

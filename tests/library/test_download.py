@@ -54,6 +54,7 @@ def cache_files(tmp_path):
     return sorted(p.relative_to(cache).as_posix() for p in cache.rglob("*") if p.is_file())
 
 
+@pytest.mark.slow
 @pytest.mark.data
 def test_download_fills_the_cache_and_loads(mirror, tmp_path, data_dir):
     pair = D.load("tsukuba", explicit_dir=None, allow_download=True)

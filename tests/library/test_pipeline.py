@@ -70,6 +70,7 @@ def monkeypatch_work():
         yield
 
 
+@pytest.mark.slow
 @settings(deadline=None)
 @given(seed=st.integers(0, 2**31), engine=st.sampled_from(list(kernels.ENGINE_NAMES)),
        cost=st.sampled_from(["sad", "census", "ssd"]), fit=st.sampled_from(["parabola", "linear"]),

@@ -272,6 +272,7 @@ def test_remap_equals_the_oracle_bit_for_bit(dtype):
     np.testing.assert_array_equal(out, expected)
 
 
+@pytest.mark.slow
 def test_chessboard_corners_land_on_the_same_rows_as_with_opencv_s_rectification():
     """A chessboard at 30 disparities seen raw through a distorted, rotated rig, then
     rectified by csw and by OpenCV's own chain (stereoRectify, initUndistortRectifyMap,

@@ -295,6 +295,7 @@ def test_sizes(text, size):
     assert tiled.parse_size(text) == size
 
 
+@pytest.mark.slow
 def test_memory_follows_the_stripe_not_the_image(tmp_path):
     """Pairs whose whole-image match needs several times the limit are matched within it:
     peak RSS during the run, above the process's RSS before it, stays under the limit
