@@ -32,7 +32,8 @@ def _cv2():
     try:
         import cv2
     except ImportError:
-        raise ImportError("csw calibrate needs OpenCV: pip install 'csw-stereo[calibrate]'") from None
+        raise ImportError("csw calibrate needs OpenCV: "
+                          "pip install 'csw-stereo[calibrate]'") from None
     return cv2
 
 

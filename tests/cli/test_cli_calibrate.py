@@ -119,4 +119,4 @@ def test_no_opencv_is_a_one_line_hint(boards, tmp_path, monkeypatch):
                "25mm", "-o", tmp_path / "rig.yml")
     assert done.exit_code == 1
     assert done.output.strip() == ("Error: csw calibrate needs OpenCV: pip install "
-                                   "'csw[calibrate]'")
+                                   "'csw-stereo[calibrate]'")
