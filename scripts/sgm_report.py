@@ -16,6 +16,7 @@ Usage: python scripts/sgm_report.py --output reports/sgm.md [--rounds N]
 """
 
 import argparse
+import os
 import statistics
 import sys
 import tempfile
@@ -31,7 +32,6 @@ import peers  # noqa: E402
 from csw.data import layouts  # noqa: E402
 from csw.data.synth import render  # noqa: E402
 from csw.io import read_disparity  # noqa: E402
-from csw.io.images import luma  # noqa: E402
 from csw.kernels.store import target_cpu  # noqa: E402
 from csw.scale.tiled import match_tiled  # noqa: E402
 from report_common import cpu_name, now_utc, peak_memory_mb  # noqa: E402
@@ -41,7 +41,7 @@ PRESET = "sgm"
 
 def kitti_pair(data_dir):
     pair = layouts.find_scene(Path(data_dir) / "kitti2015", "000000_10").load()
-    return luma(pair.left), luma(pair.right)
+    return pair.left, pair.right  # read as gray
 
 
 def spread(values):
@@ -136,7 +136,8 @@ def stripes(work):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output", default="reports/sgm.md")
-    parser.add_argument("--data-dir", default="../shared/datasets")
+    parser.add_argument("--data-dir", default=os.environ.get("CSW_DATA_DIR",
+                                                             "../shared/datasets"))
     parser.add_argument("--rounds", type=int, default=5)
     args = parser.parse_args()
 

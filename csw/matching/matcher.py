@@ -13,8 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import kernels
+from ..camera import calibration
 from ..config.params import resolve
 from ..io.images import read_image, to_gray
+from . import disparity_range
 from .disparity_range import crowded_end, shrink
 from .pipeline import match_rows
 from .pipeline import run as run_pipeline
@@ -304,7 +306,10 @@ def _zeros(shape):
 def _match(config, left, right, want_confidence, ready=None):
     """One pair with a resolved ``config``.  ready: a dict of set-ups kept between pairs
     (a Matcher's), filled with the ones that don't depend on the pixels."""
+    beside = calibration.resolve(None, left) if "dmax" not in config.given else None
     left, right = as_gray(left, "left"), as_gray(right, "right")
+    if beside is not None:  # a calib.txt beside a left image file: its ndisp, as csw match
+        config = disparity_range.decide(config, left.shape[1], beside)
     key = (config, left.shape, left.dtype, right.shape, right.dtype, want_confidence)
     prepared = None if ready is None else ready.get(key)
     compile_seconds = 0.0

@@ -148,3 +148,25 @@ def test_luma_in_stripes_equals_one_piece(monkeypatch):
     monkeypatch.setattr(runtime, "DIRECT_WORK", 1)  # every image in stripes
     np.testing.assert_array_equal(luma(big), whole)
     np.testing.assert_array_equal(whole, _formula(big))
+
+
+def test_match_on_files_takes_the_calib_txt_beside_them_as_csw_match_does(tmp_path):
+    """One range rule: a calib.txt beside the left image gives its ndisp to csw.match on
+    paths, as to csw match (csw.match_files); a dmax given wins over it in both."""
+    from csw.data.synth import render
+    from csw.io import write_png
+
+    left, right, _, _ = render(96, 64, dmax=12, seed=2)
+    write_png(tmp_path / "im0.png", left)
+    write_png(tmp_path / "im1.png", right)
+    (tmp_path / "calib.txt").write_text(
+        "cam0=[100 0 48; 0 100 32; 0 0 1]\ncam1=[100 0 48; 0 100 32; 0 0 1]\ndoffs=0\n"
+        "baseline=100\nwidth=96\nheight=64\nndisp=21\n")
+    paths = tmp_path / "im0.png", tmp_path / "im1.png"
+    from_python = csw.match(*paths).settings
+    from_cli = csw.match_files(*paths, tmp_path / "d.pfm").settings
+    assert (from_python["dmin"], from_python["dmax"]) == (0, 20)
+    assert (from_cli["dmin"], from_cli["dmax"]) == (0, 20)
+    assert from_python["range_source"] == from_cli["range_source"]
+    assert csw.match(*paths, dmax=15).settings["dmax"] == 15
+    assert csw.match(left, right).settings["range_source"].startswith("auto")  # arrays
