@@ -5,7 +5,7 @@ gives its gray level (2x2 samples a pixel), so the tests need no data."""
 import cv2
 import numpy as np
 
-from csw.camera.rectify import rodrigues
+from csw.camera.rectification import rodrigues
 from csw.camera.rig import Rig
 
 BOARD = (9, 6)

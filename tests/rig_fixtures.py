@@ -4,7 +4,7 @@ conventions (OpenCV's FileStorage, ROS camera_info), and raw images made through
 import cv2
 import numpy as np
 
-from csw.camera.rectify import rodrigues
+from csw.camera.rectification import rodrigues
 from csw.camera.rig import Rig
 
 SIZE = (320, 240)

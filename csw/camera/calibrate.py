@@ -186,7 +186,7 @@ def _solve_fisheye(cv2, obj, lefts, rights, size):
 
 def _compose(rvec, tvec, r, t):
     """The right camera's pose of a view (rvec, tvec: the left's)."""
-    from .rectify import rodrigues
+    from .rectification import rodrigues
 
     rot = r @ rodrigues(np.asarray(rvec, np.float64).ravel())
     return rodrigues(rot).reshape(3, 1), r @ np.asarray(tvec, np.float64).reshape(3, 1) + t
@@ -195,7 +195,7 @@ def _compose(rvec, tvec, r, t):
 def row_error(rig, used, alpha=0.0):
     """RMS of |y_left - y_right| (px) of the corners ``used`` once rectified by csw's
     own rectification of ``rig`` (alpha as csw rectify's)."""
-    from . import rectify as rx
+    from . import rectification as rx
 
     r1, r2, p1, p2 = rx.rectification(rig, alpha)
     move = rx.fisheye_undistort_points if rig.model == "equidistant" else \

@@ -18,11 +18,10 @@ import numpy as np
 
 from ..config.params import OptionError
 from ..io import safety
+from .rig import UNITS
 
 MAX_FILE_BYTES = 1 << 20  # a calibration is a few lines: a larger file is not one
 
-UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "km": 1000.0, "in": 0.0254,
-         "ft": 0.3048}
 
 
 @dataclass(frozen=True)
@@ -229,7 +228,7 @@ def _rig(path):
     R1 R2 P1 P2): what csw rectify's calib.txt would say.  ValueError naming --rig when
     the file is a rig that one file can't give (ROS's two camera_info files, a size not
     stated)."""
-    from .rectify import rectification, rectified_calibration
+    from .rectification import rectification
     from .rig import read_rig
 
     try:
@@ -239,6 +238,14 @@ def _rig(path):
                          ) from None
     _, _, p1, p2 = rectification(rig)
     return replace(rectified_calibration(rig, p1, p2), source=f"{path}, rectified")
+
+
+def rectified_calibration(rig, p1, p2):
+    """The Calibration (csw.depth's, Q's) of a rig's pair rectified by P1, P2."""
+    width, height = rig.size
+    return Calibration(float(p1[0, 0]), float(-(p2[0, 3] - p1[0, 3]) / p2[0, 0]),
+                       float(p1[0, 2]), float(p1[1, 2]), float(p2[0, 2] - p1[0, 2]),
+                       rig.units, width, height, source=f"{rig.source}, rectified")
 
 
 def _numbers(text):

@@ -23,7 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .rectify import coefficients
+from .rectification import coefficients
+
+# Lengths csw knows, in metres: a rig's, a calibration's and every output's units.
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "km": 1000.0, "in": 0.0254,
+         "ft": 0.3048}
 
 MODELS = ("plumb_bob", "rational_polynomial", "equidistant")
 
@@ -194,7 +198,6 @@ def _opencv(text, source, size):
     model = "rational_polynomial" if max(d1.size, d2.size) >= 8 else "plumb_bob"
     model = _opencv_word(text, "distortion_model") or model
     units = _opencv_word(text, "units")
-    from .calibration import UNITS
 
     if units not in (None, "none", *UNITS):
         raise ValueError(f"{source}: unknown units {units!r}; csw reads {', '.join(UNITS)}")
@@ -211,7 +214,7 @@ def _opencv_word(text, key):
 
 
 def _rotation(vector, source):
-    from .rectify import rodrigues
+    from .rectification import rodrigues
 
     if vector.size != 3:
         raise ValueError(f"{source}: R must be a 3x3 matrix or a rotation vector")

@@ -83,8 +83,8 @@ def test_random_shapes_ranges_and_penalties(seed, height, width, span, dmin, p1,
                                             paths, rows_per_band):
     rng = np.random.default_rng(seed)
     left, right = pair(rng, height, width, noise=40)
+    dmin = min(max(dmin, -(width - 1)), width - 1)
     dmax = min(dmin + span, width - 1)
-    dmin = max(dmin, -(width - 1))
     assert_equals_oracle(left, right, window=1, dmin=dmin, dmax=dmax, cost="sad",
                          paths=paths, p1=p1, p2=p1 + extra,
                          band_bytes=rows_per_band * one_row_bands(left, dmin, dmax))
