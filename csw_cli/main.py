@@ -99,10 +99,13 @@ def _stop(signum, frame):
 def stop_on_signals():
     """SIGTERM (a scheduler ending a job) and SIGHUP (a closed terminal) behave like
     Ctrl-C: the work stops, nothing partial stays, and the exit code is 128 + the
-    signal's number."""
+    signal's number.  A signal the process was started with ignored stays ignored, as
+    Python leaves SIGINT: ``nohup csw ...`` must outlive its terminal, and a job started
+    in the background is not stopped by the terminal's Ctrl-C."""
     for name in ("SIGTERM", "SIGHUP"):
-        if hasattr(signal, name):
-            signal.signal(getattr(signal, name), _stop)
+        number = getattr(signal, name, None)
+        if number is not None and signal.getsignal(number) != signal.SIG_IGN:
+            signal.signal(number, _stop)
 
 
 def _quiet_stdout():

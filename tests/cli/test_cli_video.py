@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 import pytest
+from child import interruptible
 from click.testing import CliRunner
 from video_fixtures import damage_jpeg_frame, write_frames
 
@@ -118,8 +119,8 @@ def test_ctrl_c_keeps_the_frames_written_and_marks_the_summary(tmp_path):
     sbs_mjpeg(tmp_path / "s.avi", 2, width=320, height=240, dmax=31)
     subprocess.run([*command[:4], "s.avi", *command[5:], "-O", "warm"], cwd=tmp_path,
                    check=True, capture_output=True)
-    process = subprocess.Popen([*command, "-O", "maps", "--preview-video", "view.mp4"],
-                               cwd=tmp_path, stderr=subprocess.PIPE, text=True)
+    process = interruptible([*command, "-O", "maps", "--preview-video", "view.mp4"],
+                            cwd=tmp_path, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 60
     while time.time() < deadline and len(os.listdir(tmp_path / "maps")
                                          if (tmp_path / "maps").exists() else []) < 5:
