@@ -9,6 +9,7 @@ d is the point Q (x, y, d, 1) of OpenCV's reprojection (x right, y down, z forwa
 the left camera's frame).
 """
 
+import functools
 import math
 import re
 from dataclasses import dataclass, replace
@@ -19,7 +20,7 @@ import numpy as np
 from ..config.params import OptionError
 from ..io import safety
 
-MAX_FILE_BYTES = 1 << 20  # a calibration is a few lines: a larger file is not one
+MAX_FILE_BYTES = safety.SMALL_FILE_BYTES  # a calibration is a few lines
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "km": 1000.0, "in": 0.0254,
          "ft": 0.3048}
@@ -175,24 +176,15 @@ def read_calibration(path):
     YAML/XML file with a Q node, or a 4x4 Q in a .npy file.  ValueError (an OptionError
     for "calib"), naming the file and what is missing, when it is none of them."""
     path = Path(path)
-    safety.protect(path)
+    refuse = functools.partial(OptionError, "calib")
     try:
-        kind = safety.kind_of(path)
-        if kind is None:
-            raise FileNotFoundError
-        if kind != "file":
-            raise OptionError("calib", f"{path} is a {kind}, not a calibration file")
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise OptionError("calib", f"{path}: {size} bytes is too large for a "
-                                       f"calibration (at most {MAX_FILE_BYTES})")
         if path.suffix.lower() == ".npy":
             from ..io.formats import load_npy
 
+            safety.check_small(path, "a calibration file", refuse, MAX_FILE_BYTES)
             return from_q(load_npy(path), str(path))
-        text = path.read_text(errors="replace")
-    except FileNotFoundError:
-        raise OptionError("calib", f"{path}: no such file") from None
+        text = safety.read_small(path, "a calibration file", refuse, MAX_FILE_BYTES)\
+            .decode(errors="replace")
     except OptionError:
         raise
     except OSError as exc:

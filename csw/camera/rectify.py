@@ -331,6 +331,11 @@ class Rectifier:
         if not (isinstance(alpha, (int, float)) and -1 <= alpha <= 1):
             raise ValueError(f"alpha must be a number from 0 to 1 (or -1: no scaling), got "
                              f"{alpha!r}")
+        from ..io.images import check_pixels
+
+        # The maps take 12 bytes a pixel: a rig's declared size is held to the images'
+        # pixel limit before they are built.
+        check_pixels(rig.size[::-1], rig.source)
         self.rig, self.alpha, self.threads = rig, alpha, threads
         fisheye = rig.model == "equidistant"
         if rig.rectification is not None:
@@ -438,6 +443,26 @@ def _rig_files(rig):
     return {f"rig {i + 1}": path for i, path in enumerate(getattr(rig, "paths", ()))}
 
 
+def check_images(rig, *paths):
+    """Each image file's size, as its header gives it, against the rig's, before any
+    map is built: OptionError naming the image ("left", "right") that can't be read,
+    or the rig when the sizes differ."""
+    from ..config.params import OptionError
+    from ..io.images import ImageError
+    from ..io.sources import open_source
+
+    for path, name in zip(paths, ("left", "right"), strict=False):
+        try:
+            height, width = open_source(path, name, probe=False).shape[:2]
+        except ImageError as exc:
+            exc.option = name
+            raise
+        try:
+            rig.check_size((width, height), f"the {name} image")
+        except ValueError as exc:
+            raise OptionError("rig", str(exc)) from None
+
+
 def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
     """Rectify a raw pair of image files with ``rig`` (a Rig) into ``out_dir``:
     left.png, right.png (the images' own type, gray or colour) and calib.txt (the
@@ -455,6 +480,7 @@ def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
                "calib": out_dir / "calib.txt"}
     check_outputs({"left_raw": left, "right_raw": right, **_rig_files(rig)}, outputs,
                   {"left": (".png",), "right": (".png",), "calib": (".txt",)})
+    check_images(rig, left, right)
     rect = Rectifier(rig, alpha, threads)
     images = []
     for path, name in ((left, "left"), (right, "right")):

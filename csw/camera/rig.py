@@ -86,10 +86,15 @@ class Rig:
                     coefficients(d)
                 except ValueError as exc:
                     raise ValueError(f"{self.source}: {exc}") from None
-        width, height = self.size
-        if not (isinstance(width, int) and isinstance(height, int) and width > 0 and
-                height > 0):
+        if not (len(self.size) == 2 and all(isinstance(n, int) and n > 0 for n in self.size)):
             raise ValueError(f"{self.source}: the image size must be two whole numbers > 0")
+
+    def check_size(self, size, what="the left image"):
+        """ValueError unless ``size`` (width, height), an image's as its header gives it,
+        is the rig's: checked before any map is built for the rig's size."""
+        if tuple(size) != tuple(self.size):
+            raise ValueError(f"{self.source}: the rig is for {self.size[0]}x"
+                             f"{self.size[1]} images but {what} is {size[0]}x{size[1]}")
 
     @property
     def baseline(self):
@@ -104,15 +109,17 @@ def read_rig(*paths, size=None):
     if not 1 <= len(paths) <= 2:
         raise ValueError("give the rig as one file, or two (OpenCV intrinsics and "
                          "extrinsics, or ROS left and right camera_info)")
-    texts = []
-    for path in paths:
-        try:
-            texts.append(Path(path).read_text(errors="replace"))
-        except OSError as exc:
-            raise ValueError(f"{path}: can't read it ({exc.strerror or exc})") from None
     from dataclasses import replace
 
-    rig = _read(texts, " and ".join(str(p) for p in paths), len(paths), size)
+    from ..io.safety import read_small
+
+    texts = [read_small(path, "a rig calibration file").decode(errors="replace")
+             for path in paths]
+    names = " and ".join(str(p) for p in paths)
+    try:
+        rig = _read(texts, names, len(paths), size)
+    except (OverflowError, TypeError) as exc:  # a size of .inf, a list where a number is
+        raise ValueError(f"{names}: a value is not a number csw can use ({exc})") from None
     return replace(rig, paths=tuple(Path(p) for p in paths))
 
 
@@ -148,9 +155,12 @@ def _numbers(text, source, key):
 
 def _opencv_matrix(text, key, source, shape=None, required=True):
     """A FileStorage matrix by name, YAML or XML; None when absent and not required."""
-    found = re.search(rf"^\s*{key}\s*:\s*(?:!!opencv-matrix)?.*?data\s*:\s*\[(.*?)\]",
-                      text, re.MULTILINE | re.DOTALL) or \
-        re.search(rf"<{key}\b[^>]*>.*?<data>(.*?)</data>", text, re.DOTALL)
+    node = _yaml_node(text, key)
+    if node is None:  # XML, or absent
+        found = re.search(rf"<{key}\b[^>]*>.*?<data>(.*?)</data>", text, re.DOTALL)
+    else:  # a plain list, or an !!opencv-matrix with its data
+        found = re.match(r"\s*\[(.*?)\]", node, re.DOTALL) or \
+            re.search(r"\bdata\s*:\s*\[(.*?)\]", node, re.DOTALL)
     if not found:
         if required:
             raise ValueError(f"{source}: no {key} matrix")
@@ -160,6 +170,22 @@ def _opencv_matrix(text, key, source, shape=None, required=True):
         raise ValueError(f"{source}: {key} must hold {math.prod(shape)} numbers, got "
                          f"{values.size}")
     return values.reshape(shape) if shape is not None else values
+
+
+def _yaml_node(text, key):
+    """The text of the YAML node ``key`` (a regular expression) names: what follows its
+    colon, and the lines after it indented deeper than the key; None when absent.  A
+    node is read only within itself: a plain list (``R: [1, 0, 0, ...]``) is that list,
+    never the next matrix's data."""
+    found = re.search(rf"^([ \t]*)(?:{key})[ \t]*:(.*)$", text, re.MULTILINE)
+    if not found:
+        return None
+    lines, indent = [found.group(2)], len(found.group(1))
+    for line in text[found.end():].splitlines()[1:]:
+        if line.strip() and len(line) - len(line.lstrip()) <= indent:
+            break
+        lines.append(line)
+    return "\n".join(lines)
 
 
 def _opencv_size(text, source, size):
@@ -174,11 +200,25 @@ def _opencv_size(text, source, size):
                          text, re.MULTILINE)
         pair = [int(pair.group(1)), int(pair.group(2))] if pair else None
     if pair is not None and len(pair) == 2:
-        return int(pair[0]), int(pair[1])
+        return _whole_size(pair, source)
     if size is None:
         raise ValueError(f"{source}: the file doesn't say the image size; give it (the "
                          "raw images' size is used when matching)")
-    return tuple(int(v) for v in size)
+    return _whole_size(size, source)
+
+
+def _whole_size(values, source):
+    """(width, height) from two whole numbers > 0 as a file gives them (a YAML value may
+    be anything: a string, a list, .inf); ValueError otherwise."""
+    try:
+        numbers = [float(v) for v in values]
+    except (TypeError, ValueError):
+        numbers = []
+    if len(numbers) != 2 or not all(math.isfinite(n) and n >= 1 and abs(n - round(n)) < 1e-6
+                                    for n in numbers):
+        raise ValueError(f"{source}: the image size must be two whole numbers > 0, got "
+                         f"{str(values)[:40]}")
+    return tuple(round(n) for n in numbers)
 
 
 def _opencv(text, source, size):
@@ -204,11 +244,33 @@ def _rotation(vector, source):
     return rodrigues(vector)
 
 
+MAX_YAML_DEPTH = 32  # a rig file nests three or four levels
+
+
 def _yaml(text, source):
+    """A YAML document, read safely: no aliases (a kilobyte of them, each naming the last
+    several times, expands to gigabytes) and no deeper nesting than MAX_YAML_DEPTH (the
+    composer recurses), each refused in one line."""
     import yaml
 
+    class Loader(yaml.SafeLoader):
+        depth = 0
+
+        def compose_node(self, parent, index):
+            if self.check_event(yaml.AliasEvent):
+                raise ValueError(f"{source}: YAML aliases (*name) are not read in a rig file")
+            self.depth += 1
+            if self.depth > MAX_YAML_DEPTH:
+                raise ValueError(f"{source}: the YAML nests deeper than {MAX_YAML_DEPTH} "
+                                 "levels; not a rig file")
+            try:
+                return super().compose_node(parent, index)
+            finally:
+                self.depth -= 1
+
+    text = re.sub(r"^%YAML[: ]1\.\d\s*$", "", text, flags=re.MULTILINE)
     try:
-        return yaml.safe_load(re.sub(r"^%YAML[: ]1\.\d\s*$", "", text, flags=re.MULTILINE))
+        return yaml.load(text, Loader)  # noqa: S506 (a SafeLoader)
     except yaml.YAMLError as exc:
         raise ValueError(f"{source}: not readable YAML "
                          f"({str(exc).splitlines()[0]})") from None
@@ -241,7 +303,8 @@ def _ros(texts, source):
     d1, d2 = (_field(c, "distortion_coefficients", source) for c in cams)
     r1, r2 = (_field(c, "rectification_matrix", source, (3, 3)) for c in cams)
     p1, p2 = (_field(c, "projection_matrix", source, (3, 4)) for c in cams)
-    sizes = {(int(c.get("image_width", 0)), int(c.get("image_height", 0))) for c in cams}
+    sizes = {_whole_size((c.get("image_width"), c.get("image_height")), source)
+             for c in cams}
     if len(sizes) != 1:
         raise ValueError(f"{source}: the left and right camera_info give different sizes")
     models = {ROS_MODELS.get(str(c.get("distortion_model", "plumb_bob"))) for c in cams}
@@ -277,7 +340,7 @@ def _kitti(text, source):
     t2_, t3_ = matrix("T_02", (3,)), matrix("T_03", (3,))
     r = r3_ @ r2_.T
     t = t3_ - r @ t2_
-    width, height = (int(round(v)) for v in matrix("S_02", (2,)))
+    width, height = _whole_size(matrix("S_02", (2,)), source)
     rect = None
     if all(k in rows for k in ("R_rect_02", "R_rect_03", "P_rect_02", "P_rect_03")):
         # R_rect_0i: camera i's rectifying rotation (raw to rectified frame).
@@ -314,8 +377,8 @@ def _kalibr(text, source):
         raise ValueError(f"{source}: unknown or mixed distortion models (radtan, "
                          "equidistant)")
     transform = _field(cams[1], "T_cn_cnm1", source, (4, 4))  # cam0 -> cam1
-    sizes = {tuple(int(v) for v in cam.get("resolution", ())) for cam in cams}
-    if len(sizes) != 1 or len(next(iter(sizes))) != 2:
+    sizes = {_whole_size(cam.get("resolution", ()), source) for cam in cams}
+    if len(sizes) != 1:
         raise ValueError(f"{source}: cam0 and cam1 need one resolution [width, height]")
     return Rig(ks[0], ds[0], ks[1], ds[1], transform[:3, :3], transform[:3, 3],
                sizes.pop(), models[0], None, "m", source)

@@ -396,6 +396,22 @@ def _side_by_side(config, job):
     return stream_plan(config, (height, width))
 
 
+def first_size(jobs):
+    """(width, height) of the first pair whose left image's header can be read, or None:
+    the size a batch's rig is for.  A pair that can't be read (a pipe, a damaged file)
+    is passed over here and fails alone when its turn comes."""
+    from ..io.images import image_header
+
+    for job in jobs:
+        if job.problem is None:
+            try:
+                height, width = image_header(job.left)[2]
+                return width, height
+            except ValueError:
+                continue
+    return None
+
+
 NOTED_KEPT = 20  # notes on pairs (a range cut short...) a batch's report repeats
 
 

@@ -293,19 +293,21 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
 
 
 def batch_rig(rigs, left_dir, manifest):
-    """The rig of a batch of raw pairs, its image size from the first pair's left image
-    when the file doesn't give it."""
+    """The rig of a batch of raw pairs, checked against (and its image size, when the
+    file doesn't give it, taken from) the first pair's left image that can be read."""
     from csw import jobs_from_folders, jobs_from_manifest
     from csw.camera.rig import read_rig
-    from csw.io.images import image_header
+    from csw.scale.batch import first_size
 
     with opt.library_errors("--manifest" if manifest else "LEFT"):
         jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left_dir,
                                                                                left_dir)
-        first = next(job.left for job in jobs)
-        height, width = image_header(first)[2]
+        size = first_size(jobs)
     with opt.library_errors("--rig"):
-        return read_rig(*rigs, size=(width, height))
+        rig = read_rig(*rigs, size=size)
+        if size is not None:  # before the maps are built for the rig's size
+            rig.check_size(size, "the batch's first left image")
+        return rig
 
 
 def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, config,
