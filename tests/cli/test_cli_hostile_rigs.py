@@ -204,3 +204,71 @@ def test_rig_reading_refuses_what_is_not_a_rig_file(tmp_path):
     rig = random_rig(np.random.default_rng(5))
     with pytest.raises(ValueError, match="two whole numbers"):
         Rig(rig.k1, rig.d1, rig.k2, rig.d2, rig.r, rig.t, (640,))
+
+
+def test_16_bit_colour_goes_through_rectification_single_and_batch(rig_folder):
+    """Pillow can't write 16-bit RGB: the rectified images are written with pypng, as
+    16-bit RGB, and a batch holding such a pair does every pair."""
+    from csw.io.images import read_colour
+
+    rng = np.random.default_rng(3)
+    colour = rng.integers(0, 65536, (SIZE[1], SIZE[0], 3)).astype(np.uint16)
+    write_png(rig_folder / "c.png", colour)
+    np.testing.assert_array_equal(read_colour(rig_folder / "c.png"), colour)
+    rig = rig_folder / "stereo.yml"
+    result = run("rectify", rig_folder / "c.png", rig_folder / "c.png", "--rig", rig,
+                 "-O", rig_folder / "rect")
+    assert result.exit_code == 0, result.output
+    rectified = read_colour(rig_folder / "rect" / "left.png")
+    assert rectified.dtype == np.uint16 and rectified.shape == colour.shape
+    result = run("match", rig_folder / "c.png", rig_folder / "c.png", "--rig", rig, "-o",
+                 rig_folder / "d.pfm", "--dmax", 8, "--rectified-left", rig_folder / "rl.png")
+    assert result.exit_code == 0, result.output
+    assert read_colour(rig_folder / "rl.png").dtype == np.uint16
+    for side in ("L", "R"):
+        (rig_folder / side).mkdir()
+        for name in ("a.png", "b.png"):
+            (rig_folder / side / name).write_bytes((rig_folder / "c.png").read_bytes()
+                                                   if name == "a.png" else
+                                                   (rig_folder / "l.png").read_bytes())
+    result = run("rectify", rig_folder / "L", rig_folder / "R", "--rig", rig, "-O",
+                 rig_folder / "batch")
+    assert result.exit_code == 0 and "2 pair(s) rectified" in result.output, result.output
+
+
+R_BLOCK = r"R: !!opencv-matrix\n(?:   .*\n|       .*\n)+"
+
+
+@pytest.mark.parametrize("r, expected", [
+    ("R: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n", np.eye(3)),
+    ("R: [0, 0, 0]\n", np.eye(3)),  # a rotation vector
+    ("R: [1, 0,\n   0, 0, 1, 0, 0, 0, 1]\n", np.eye(3)),  # a list over two lines
+    ("R: [1, 0, 0, 0]\n", None),
+])
+def test_r_as_a_plain_list_is_read_as_that_list(rig_folder, r, expected):
+    """A plain list is R's own numbers (9: a matrix, 3: a rotation vector, else an
+    error), never the next matrix's data."""
+    import re
+
+    path = rig_folder / "stereo.yml"
+    path.write_text(re.sub(R_BLOCK, r, path.read_text()))
+    if expected is None:
+        with pytest.raises(ValueError, match="R must be a 3x3 matrix or a rotation vector"):
+            read_rig(path)
+    else:
+        np.testing.assert_array_equal(read_rig(path).r, expected)
+
+
+def test_rectification_given_as_plain_lists_is_used_as_given(rig_folder):
+    rig = read_rig(rig_folder / "stereo.yml")
+    r1, r2, p1, p2, _ = stereo_rectify(rig.k1, rig.d1, rig.k2, rig.d2, SIZE, rig.r, rig.t)
+
+    def listed(name, m):
+        return f"{name}: [{', '.join(f'{v:.17g}' for v in np.ravel(m))}]\n"
+
+    path = rig_folder / "stereo.yml"
+    path.write_text(path.read_text() + "".join(
+        listed(n, m) for n, m in (("R1", r1), ("R2", r2), ("P1", p1), ("P2", p2))))
+    given = read_rig(path).rectification
+    for read, made in zip(given, (r1, r2, p1, p2), strict=True):
+        np.testing.assert_array_equal(read, made)
