@@ -61,6 +61,22 @@ def decide(config, width, calibration=None, shrunk=None):
     return config.replace(dmin=low, dmax=high, range_source=source)
 
 
+def check_bounds(config, width):
+    """OptionError now when a bound given can't fit a pair ``width`` wide (a video's
+    frames, known from its header before any is decoded), as the kernels would refuse
+    it on every pair; an "auto" bound is taken as the widest it could be."""
+    from ..config.params import OptionError
+    from ..kernels.contract import check_range
+
+    dmin = -width + 1 if config.dmin == "auto" else config.dmin
+    dmax = width - 1 if config.dmax == "auto" else config.dmax
+    try:
+        check_range(dmin, dmax, width)
+    except ValueError as exc:
+        raise OptionError("dmin" if str(exc).startswith("dmin") else "dmax",
+                          str(exc)) from None
+
+
 def factor(width):
     """The shrink factor for an image ``width`` wide: a power of two, at least 2."""
     f = 2

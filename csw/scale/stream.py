@@ -22,6 +22,7 @@ from ..io import safety
 from ..io.formats import check_range, suffixes, write_disparity
 from ..io.pictures import INVALID, TURBO
 from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoReader, VideoWriter
+from ..matching.disparity_range import check_bounds
 from ..matching.matcher import Matcher
 from .batch import PairLog, failure_message, write_summary
 from .executor import progress_bar
@@ -65,7 +66,8 @@ def video_frames(left, right=None, sbs=False, colour=False):
     if sbs and width % 2:
         raise VideoError(f"{left}: a side-by-side frame must have an even width (two "
                          f"halves), got {width}")
-    info = {"rate": readers[0].rate, "frames": readers[0].frames, "notes": []}
+    info = {"rate": readers[0].rate, "frames": readers[0].frames, "notes": [],
+            "size": (width // 2 if sbs else width, height)}
     return _frames(readers, sbs, info["notes"]), info
 
 
@@ -240,6 +242,7 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
             Path(preview_video).resolve() == Path(summary).resolve():
         raise OptionError("preview_video", "the preview video and the summary are one file")
     frames, info = video_frames(left, right, sbs, colour=preview_sbs)
+    check_bounds(config, info["size"][0])  # from the header: before a frame is decoded
     if out_dir is not None:
         try:
             out_dir.mkdir(parents=True, exist_ok=True)

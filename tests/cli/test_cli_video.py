@@ -194,3 +194,18 @@ def test_a_frame_whose_own_range_its_format_cant_hold_fails_alone(tmp_path):
     assert "Traceback" not in result.output
     assert sorted(os.listdir(tmp_path / "maps")) == ["000000.png", "000002.png",
                                                      "summary.json"]
+
+
+@pytest.mark.parametrize("given, words", [
+    (["--dmin", 20, "--dmax", 10], ["--dmin", "must not exceed dmax (10)"]),
+    (["--dmax", 1000000], ["--dmax", "less than the image width (96)"]),
+    (["--dmin", -500], ["--dmin", "greater than minus the image width (96)"]),
+])
+def test_a_range_no_frame_can_take_is_refused_before_decoding(tmp_path, given, words):
+    """As a single pair's: exit 2 at once, one line, nothing written (the frames' width
+    comes from the video's header), not a failure a frame."""
+    video = sbs_mjpeg(tmp_path / "v.avi", 4)
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", *given)
+    assert one_line_error(result), result.output
+    assert all(word in result.output for word in words), result.output
+    assert not (tmp_path / "maps").exists()
