@@ -22,6 +22,8 @@ from ..io import safety
 
 MAX_FILE_BYTES = safety.SMALL_FILE_BYTES  # a calibration is a few lines
 
+FLOAT32_MAX = 3.4e38
+
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "km": 1000.0, "in": 0.0254,
          "ft": 0.3048}
 
@@ -67,6 +69,11 @@ class Calibration:
             which = "focal length" if self.focal == 0 else "baseline"
             raise ValueError(f"{self.source}: the {which} is 0, so no depth follows from "
                              "it; check the calibration")
+        # Depths are float32: beyond its range every depth would be inf.
+        if not abs(self.focal * self.baseline) < FLOAT32_MAX:
+            raise ValueError(f"{self.source}: focal length x baseline ({self.focal:g} x "
+                             f"{self.baseline:g}) is too large to give a depth; check the "
+                             "calibration")
         if self.units is not None and self.units not in UNITS:
             raise ValueError(f"{self.source}: unknown units {self.units!r}; use "
                              f"{', '.join(UNITS)}")

@@ -355,6 +355,9 @@ class Rectifier:
                        (height, width), threads)
             for k, d, rr, p in ((rig.k1, rig.d1, r1, p1), (rig.k2, rig.d2, r2, p2)))
         self.valid = tuple(f.valid.view(np.bool_) for f in self.fixed)
+        if not all(v.any() for v in self.valid):  # only black images would follow
+            raise ValueError(f"{rig.source}: no pixel of the rectified images has a source "
+                             "in the raw ones; check the rig (its size, R and T) and alpha")
         self._all_valid = tuple(bool(v.all()) for v in self.valid)
         focal = float(p1[0, 0])
         self.calibration = Calibration(
@@ -502,14 +505,15 @@ def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
     return rect
 
 
-def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None):
+def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None, progress=False):
     """Rectify every pair of ``jobs`` (csw.Job, from csw.jobs_from_folders or
     csw.jobs_from_manifest) with one Rectifier, its maps built once, into
     ``out_dir/left/NAME.png`` and ``out_dir/right/NAME.png``, with the rectified
     calibration in ``out_dir/left/calib.txt`` (where ``csw match out_dir/left
     out_dir/right -O maps`` finds it beside each left image).  Each pair is written whole
     or not at all; a pair that fails is reported and the others go on.  Returns
-    {"ok": count, "failed": [(name, one-line error), ...], "rectifier": the Rectifier}."""
+    {"ok": count, "failed": [(name, one-line error), ...], "rectifier": the Rectifier}.
+    progress: a progress bar on stderr."""
     from pathlib import Path
 
     from ..io.atomic import atomic_write_all
@@ -524,7 +528,10 @@ def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None):
     text = rect.calib_text().encode()
     check_outputs(_rig_files(rig), {"calib": calib}, {"calib": (".txt",)})
     atomic_write_all([(calib, lambda tmp: Path(tmp).write_bytes(text))])
+    from ..scale.executor import progress_bar
+
     done, failed = 0, []
+    bar = progress_bar(len(jobs), "csw rectify", "pair", progress)
     for job in jobs:
         try:
             if job.problem:
@@ -540,4 +547,6 @@ def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None):
         except (ValueError, OSError) as exc:
             failed.append((job.name, str(exc).splitlines()[0] if str(exc) else
                            type(exc).__name__))
+        bar.update(1)
+    bar.close()
     return {"ok": done, "failed": failed, "rectifier": rect}

@@ -26,6 +26,7 @@ import numpy as np
 from .rectify import coefficients
 
 MODELS = ("plumb_bob", "rational_polynomial", "equidistant")
+LARGEST = 1e12  # a focal length in pixels, a baseline in micrometres: far below this
 
 
 @dataclass(frozen=True, eq=False)
@@ -58,6 +59,9 @@ class Rig:
                 raise ValueError(f"{self.source}: {name} must be {shape}, got {value.shape}")
             if not np.isfinite(value).all():
                 raise ValueError(f"{self.source}: {name} holds a NaN or an infinity")
+            if np.abs(value).max() > LARGEST:  # no camera's: and its products overflow
+                raise ValueError(f"{self.source}: {name} holds {np.abs(value).max():g}, "
+                                 "too large for a camera's calibration")
         for k in (self.k1, self.k2):
             if abs(np.linalg.det(k)) < 1e-12 or k[0, 0] <= 0 or k[1, 1] <= 0:
                 raise ValueError(f"{self.source}: a camera matrix is singular or has a "
@@ -117,7 +121,8 @@ def read_rig(*paths, size=None):
              for path in paths]
     names = " and ".join(str(p) for p in paths)
     try:
-        rig = _read(texts, names, len(paths), size)
+        with np.errstate(all="ignore"):  # huge values are refused by Rig, not warned of
+            rig = _read(texts, names, len(paths), size)
     except (OverflowError, TypeError) as exc:  # a size of .inf, a list where a number is
         raise ValueError(f"{names}: a value is not a number csw can use ({exc})") from None
     return replace(rig, paths=tuple(Path(p) for p in paths))
@@ -314,6 +319,9 @@ def _ros(texts, source):
     model = models.pop()
     if model == "plumb_bob" and max(d1.size, d2.size) >= 8:
         model = "rational_polynomial"
+    if p1[0, 3] != 0 and p2[0, 3] == 0:
+        raise ValueError(f"{source}: the first camera_info is the right camera's (its "
+                         "projection matrix holds the baseline); give the left one first")
     # Rectified frames: R1 X_left = X_rect, R2 X_right = X_rect - (B, 0, 0), with
     # P2[0, 3] = -fx B: so R = R2^T R1 and T = R2^T (P2[0, 3] / fx, 0, 0).
     shift = np.array([p2[0, 3] / p2[0, 0], p2[1, 3] / p2[1, 1], 0.0])

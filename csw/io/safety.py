@@ -141,6 +141,8 @@ def check_outputs(inputs, outputs, allowed):
             continue
         path = Path(path)
         suffix = path.suffix.lower()
+        if path.is_dir() and suffix != ".zarr":  # said first: a folder has no extension
+            raise _error(f"{str(path)!r} is a folder; give a file name", name)
         if suffix not in allowed[name]:
             raise _error(f"unknown extension {path.suffix or '(none)'!r}; use "
                          f"{', '.join(allowed[name])}", name)

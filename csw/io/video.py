@@ -115,6 +115,9 @@ class VideoReader:
                 for frame in decoded:
                     yield (index, *self._arrays(frame))
                     index += 1
+            if index == 0:  # the run stops, saying so (a header's count can be a guess:
+                # only an empty file is sure to be wrong)
+                raise VideoError(f"{self.path}: holds no frames")
         except av.error.FFmpegError as exc:  # the container itself, past a point
             yield index, VideoError(f"{self.path}: the file is damaged after frame "
                                     f"{index} ({_reason(exc)})"), None

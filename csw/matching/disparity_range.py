@@ -130,8 +130,14 @@ def estimate(small_left, small_right, f, width, dmin=None, dmax=None, threads=No
     confident disparity to go by."""
     config = _coarse(small_left.shape[1], f, dmin, dmax, threads)
     low, high = config.dmin, config.dmax
-    found = run_pipeline(small_left, small_right, dict(config.kernel_args(), csw=False, tau=-1),
-                         config.stages)[0]
+    try:
+        found = run_pipeline(small_left, small_right,
+                             dict(config.kernel_args(), csw=False, tau=-1), config.stages)[0]
+    except ValueError as exc:  # its sizes are the shrunk pair's: say so, not the user's
+        height, small = small_left.shape[:2]
+        raise ValueError(f"can't find the disparity range from the pair ({width} wide, "
+                         f"shrunk {f} times to {small}x{height}: {exc}); give --dmin and "
+                         "--dmax") from None
     # A match at the search's end is no minimum found (the best may lie beyond it), and
     # where a texture repeats, a whole band of them can pass the checks; leave them out.
     values = found[np.isfinite(found) & (found > low) & (found < high)]

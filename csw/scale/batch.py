@@ -61,7 +61,8 @@ def check_name(name, where):
     elif len(name.encode(errors="replace")) > MAX_NAME_BYTES:
         problem = f"is longer than {MAX_NAME_BYTES} bytes"
     if problem:
-        raise ValueError(f"{where}: the name {name!r} {problem}; a pair's name must be a "
+        shown = repr(name) if len(name) <= 60 else repr(name[:60]) + "..."  # one line
+        raise ValueError(f"{where}: the name {shown} {problem}; a pair's name must be a "
                          "plain file name (letters, digits, '-', '_', '.')")
 
 

@@ -74,7 +74,6 @@ MATCH_HELP = opt.sectioned(
     ("Pipeline stages (on top of the preset)",
      ["prefilter", "prefilter_cap", "texture_threshold", "lr_check", "uniqueness_ratio",
       "subpixel", "speckle_size", "speckle_range", "median", "fill"]),
-    ("CSW: skip right pixels already claimed", ["csw", "csw_rule", "tau", "csw_margin"]),
     ("Depth and point clouds", ["depth", "depth_preview", "cloud", "max_depth", "calib",
                                 "focal", "baseline", "cx", "cy", "doffs", "units",
                                 "calib_units"]),
@@ -83,6 +82,8 @@ MATCH_HELP = opt.sectioned(
     ("Many pairs, big pairs and clusters", ["output_dir", "manifest", "suffix",
                                             "overwrite", "summary", "memory_limit",
                                             "workers", "scheduler"]),
+    # Off by default, and no faster on the default engine: after what most runs use.
+    ("CSW: skip right pixels already claimed", ["csw", "csw_rule", "tau", "csw_margin"]),
     ("Engine", ["engine", "threads"]),
 )
 
@@ -240,6 +241,10 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
                                    "pairs write into --output-dir")
         if bool(manifest) == (left is not None):
             raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")
+        if left is not None and not os.path.isdir(left):
+            raise click.UsageError(f"{left} is a file: --output-dir is for many pairs (LEFT "
+                                   "and RIGHT folders, or --manifest); for one pair give "
+                                   "-o FILE")
         if left is not None and (right is None or not os.path.isdir(right)):
             raise click.UsageError("with a LEFT folder, RIGHT must be a folder too")
         with opt.library_errors():

@@ -80,7 +80,7 @@ def rectify_batch(left, right, manifest, rigs, output_dir, alpha, threads):
         if size is not None:  # before the maps are built for the rig's size
             rig.check_size(size, "the batch's first left image")
     with opt.library_errors():
-        report = rectify_many(jobs, rig, output_dir, alpha, threads)
+        report = rectify_many(jobs, rig, output_dir, alpha, threads, progress=True)
     click.echo(f"{report['ok']} pair(s) rectified into {output_dir}/left and "
                f"{output_dir}/right (calib.txt in {output_dir}/left), "
                f"{len(report['failed'])} failed", err=True)
