@@ -209,3 +209,51 @@ def test_a_range_no_frame_can_take_is_refused_before_decoding(tmp_path, given, w
     assert one_line_error(result), result.output
     assert all(word in result.output for word in words), result.output
     assert not (tmp_path / "maps").exists()
+
+
+def test_a_full_disk_stops_the_run_cleanly_with_its_summary_and_preview(tmp_path,
+                                                                         monkeypatch):
+    """The batch rule: the frame whose map can't be written is reported, and since a full
+    disk fails every frame after it, the run stops there, keeping the maps and the
+    preview of the frames done and writing its summary (exit 1)."""
+    import errno
+
+    from csw.scale import stream
+
+    real = stream.write_disparity
+
+    def full_from_frame_3(path, values):
+        if path.name >= "000003":
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(path, values)
+
+    monkeypatch.setattr(stream, "write_disparity", full_from_frame_3)
+    video = sbs_mjpeg(tmp_path / "v.avi", 8)
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--dmax", 15,
+                    "--preview-video", tmp_path / "view.mp4")
+    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+    assert "stopped early: frame 3: can't write" in result.output
+    assert "No space left on device" in result.output
+    summary = json.loads((tmp_path / "maps" / "summary.json").read_text())
+    assert summary["counts"] == {"ok": 3, "skipped": 0, "failed": 1}
+    assert summary["stopped"].startswith("frame 3: can't write")
+    assert sorted(os.listdir(tmp_path / "maps")) == \
+        [f"{i:06d}.pfm" for i in range(3)] + ["summary.json"]
+    assert sum(1 for _ in av.open(str(tmp_path / "view.mp4")).decode(video=0)) == 3
+
+
+def test_an_unwritable_output_folder_is_refused_before_decoding(tmp_path, monkeypatch):
+    from csw.scale import stream
+
+    (tmp_path / "maps").mkdir()
+    real = os.access
+    monkeypatch.setattr(stream.os, "access", lambda path, mode, **kw: False if
+                        mode == os.W_OK and os.path.realpath(path) == str(tmp_path / "maps")
+                        else real(path, mode, **kw))  # as a read-only disk, even for root
+    decoded = []
+    monkeypatch.setattr(stream.VideoReader, "__iter__", lambda self: decoded.append(1))
+    result = invoke("match", sbs_mjpeg(tmp_path / "v.avi", 3), "--sbs", "-O",
+                    tmp_path / "maps")
+    assert one_line_error(result), result.output
+    assert f"the folder {tmp_path / 'maps'} is not writable" in result.output
+    assert decoded == [] and os.listdir(tmp_path / "maps") == []
