@@ -372,8 +372,12 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         remove_temporaries(path for i in todo for path in outputs[i].values())
         return write_summary(summary, log, config.as_dict())
     except KeyboardInterrupt:
-        # What finished is complete on disk: say so, marked as interrupted, and stop.
-        write_summary(summary, log, config.as_dict(), interrupted=True)
+        # What finished is complete on disk: say so, marked as interrupted, and stop (a
+        # second Ctrl-C waits until the summary is written).
+        from .stream import signals_held
+
+        with signals_held():
+            write_summary(summary, log, config.as_dict(), interrupted=True)
         raise
     finally:
         bar.close()

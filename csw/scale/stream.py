@@ -272,7 +272,8 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
     except VideoError as exc:  # the stream can't go on (a size changed, a damaged file):
         run.stopped = str(exc)  # what is done is kept, and the summary says why it ended
     except KeyboardInterrupt:
-        run.finish(config, info["notes"], interrupted=True)
+        with signals_held():  # a second Ctrl-C waits until the summary is written
+            run.finish(config, info["notes"], interrupted=True)
         raise
     except BaseException:
         run.abandon()

@@ -279,6 +279,38 @@ def test_a_signal_ignored_at_start_stays_ignored_and_signal_tests_restore_them()
     assert out.split() == ["False", "False", "False"]
 
 
+CLEAN_UP = """
+import os, signal, sys
+from csw_cli import main
+main.stop_on_signals()
+try:
+    os.kill(os.getpid(), signal.SIGINT)  # the first Ctrl-C: the run stops ...
+    for _ in range(10**7):
+        pass
+except KeyboardInterrupt as exc:  # ... and cleans up, while two more signals come
+    os.kill(os.getpid(), signal.SIGINT)
+    os.kill(os.getpid(), signal.SIGTERM)
+    sum(range(10**5))  # a signal's handler runs between two bytecodes: here, if any
+    open(sys.argv[1], "w").write("the summary")
+    main._interrupted(getattr(exc, "signum", signal.SIGINT))
+"""
+
+
+def test_a_second_signal_during_clean_up_changes_nothing(tmp_path):
+    """Ctrl-C, then Ctrl-C and SIGTERM while the run cleans up: the clean-up finishes
+    (the summary is written), the exit is the first signal's (130), no traceback.  The
+    signals are sent by the process to itself, so the test holds however fast the
+    machine is."""
+    from child import default_signals
+
+    out = subprocess.run([sys.executable, "-c", CLEAN_UP, str(tmp_path / "summary.json")],
+                         preexec_fn=default_signals, capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 130, out.stderr
+    assert out.stderr.strip().splitlines() == ["csw: interrupted; no partial file was left"]
+    assert (tmp_path / "summary.json").read_text() == "the summary"
+
+
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
 def test_sigterm_and_sighup_behave_like_ctrl_c(tmp_path, signum):
     rng = np.random.default_rng(0)

@@ -257,3 +257,26 @@ def test_an_unwritable_output_folder_is_refused_before_decoding(tmp_path, monkey
     assert one_line_error(result), result.output
     assert f"the folder {tmp_path / 'maps'} is not writable" in result.output
     assert decoded == [] and os.listdir(tmp_path / "maps") == []
+
+
+def test_a_second_ctrl_c_waits_for_the_summary(tmp_path, monkeypatch):
+    """A Ctrl-C stops the run; a second one, while its summary is being written, waits
+    until it is (in a notebook too, where csw's CLI handlers are not in place)."""
+    from csw.scale import stream
+
+    real = stream.write_summary
+
+    def ctrl_c_again(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)  # held until the summary is written
+        return real(*args, **kwargs)
+
+    def ctrl_c_at_frame_3(done, total):
+        if done == 3:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(stream, "write_summary", ctrl_c_again)
+    with pytest.raises(KeyboardInterrupt):
+        stream.match_video(sbs_mjpeg(tmp_path / "v.avi", 8), sbs=True,
+                           out_dir=tmp_path / "maps", dmax=15, progress=ctrl_c_at_frame_3)
+    summary = json.loads((tmp_path / "maps" / "summary.json").read_text())
+    assert summary["interrupted"] is True and summary["counts"]["ok"] >= 3
