@@ -306,3 +306,113 @@ def test_chessboard_corners_land_on_the_same_rows_as_with_opencv_s_rectification
     print(f"row RMS: csw {ours:.3f} px, OpenCV {theirs:.3f} px, raw {row_rms(raw):.2f} px")
     assert ours <= theirs + 0.03
     assert ours < 0.25 * row_rms(raw)
+
+
+# ------------------------------------------- details a one-line change would break (issue 39)
+
+
+def test_a_non_zero_ninth_distortion_coefficient_is_refused():
+    from csw.camera.rectify import coefficients
+
+    tilted = np.zeros(12)
+    tilted[8] = 0.01  # s1, the thin-prism model's first: csw's model stops at k6
+    with pytest.raises(ValueError, match="coefficients"):
+        coefficients(tilted)
+    assert coefficients(np.r_[np.arange(1, 9) * 0.01, np.zeros(4)])[7] == pytest.approx(0.08)
+
+
+def test_invalidate_drops_exactly_the_pixels_whose_match_has_no_source():
+    """The left pixel's own validity, and its match x - d in the right image's: checked
+    against a brute-force loop, on a rig whose two cameras' valid areas differ."""
+    rig = random_rig(np.random.default_rng(14))
+    rect = Rectifier(rig, alpha=1.0)
+    valid_left, valid_right = rect.valid
+    assert not valid_left.all() and not (valid_left == valid_right).all()
+    rng = np.random.default_rng(1)
+    disparity = rng.uniform(0, 40, SIZE[::-1]).astype(np.float32)
+    disparity[rng.random(disparity.shape) < 0.1] = np.nan
+    expected = disparity.copy()
+    for y, x in zip(*np.nonzero(np.isfinite(disparity)), strict=True):
+        column = int(np.round(x - disparity[y, x]))
+        if not valid_left[y, x] or not (0 <= column < SIZE[0] and valid_right[y, column]):
+            expected[y, x] = np.nan
+    rect.invalidate(disparity)
+    np.testing.assert_array_equal(np.isnan(disparity), np.isnan(expected))
+
+
+@pytest.mark.parametrize("raw", [(10, 1), (1, 10)])
+def test_the_remap_refuses_a_raw_image_under_2x2(raw):
+    from csw.kernels.remap import fixed_maps
+
+    maps = np.zeros((4, 4), np.float32)
+    with pytest.raises(ValueError, match="at least 2x2"):
+        fixed_maps(maps, maps, raw)
+
+
+def test_a_point_on_the_last_column_or_row_blends_from_the_pixel_before_it():
+    """offset is kept one short of the last column and row: the point takes weight 32
+    on the next pixel, never a pixel past the row's end."""
+    from csw.kernels.remap import fixed_maps
+
+    height, width = 5, 7
+    map_x = np.array([[width - 1, 0.0]], np.float32)
+    map_y = np.array([[0.0, height - 1]], np.float32)
+    fixed = fixed_maps(map_x, map_y, (height, width))
+    assert fixed.offset[0, 0] == width - 2 and fixed.weights[0, 0] & 63 == 32
+    assert fixed.offset[0, 1] == (height - 2) * width and fixed.weights[0, 1] >> 6 == 32
+    image = np.arange(height * width, dtype=np.uint8).reshape(height, width)
+    out, valid = remap(image, fixed, None)
+    assert valid.all() and out.tolist() == [[width - 1, (height - 1) * width]]
+
+
+def test_a_vertical_rig_is_refused():
+    rig = random_rig(np.random.default_rng(12))
+    with pytest.raises(ValueError, match="vertical rig"):
+        Rig(rig.k1, rig.d1, rig.k2, rig.d2, rig.r, np.array([0.001, 0.12, 0.0]), SIZE)
+    forward = Rig(rig.k1, rig.d1, rig.k2, rig.d2, rig.r, np.array([-0.12, 0.01, 0.3]), SIZE)
+    assert forward.baseline > 0.3  # a large Tz is no vertical rig
+
+
+def test_kitti_with_camera_0_elsewhere_and_its_own_rectification(tmp_path):
+    """R_02, T_02 not the identity and zero: left to right is R3 R2^T and T3 - R T2; the
+    file's R_rect and P_rect are used as given, P_rect's offsets made relative."""
+    rig = random_rig(np.random.default_rng(10))
+    r02, t02 = csw.camera.rectify.rodrigues(np.array([0.02, -0.05, 0.01])), \
+        np.array([0.06, -0.01, 0.02])
+    r03, t03 = rig.r @ r02, rig.r @ t02 + rig.t
+
+    def row(values):
+        return " ".join(f"{v:.17g}" for v in np.ravel(values))
+
+    r1, r2, p1, p2, _ = opencv_rectify(rig, 0.0)
+    p2_kitti, p3_kitti = p1.copy(), p2.copy()
+    p2_kitti[:, 3] += [4.5, 0.1, 0.002]  # camera 2's own offset from camera 0
+    p3_kitti[:, 3] += [4.5, 0.1, 0.002]
+    (tmp_path / "calib_cam_to_cam.txt").write_text(
+        f"S_02: {SIZE[0]} {SIZE[1]}\nK_02: {row(rig.k1)}\nD_02: {row(rig.d1)}\n"
+        f"R_02: {row(r02)}\nT_02: {row(t02)}\nK_03: {row(rig.k2)}\nD_03: {row(rig.d2)}\n"
+        f"R_03: {row(r03)}\nT_03: {row(t03)}\nR_rect_02: {row(r1)}\nR_rect_03: {row(r2)}\n"
+        f"P_rect_02: {row(p2_kitti)}\nP_rect_03: {row(p3_kitti)}\n")
+    kitti = read_rig(tmp_path / "calib_cam_to_cam.txt")
+    np.testing.assert_allclose(kitti.r, rig.r, atol=1e-12)
+    np.testing.assert_allclose(kitti.t, rig.t, atol=1e-12)
+    given = kitti.rectification
+    np.testing.assert_allclose(given[0], r1, atol=1e-12)
+    np.testing.assert_allclose(given[1], r2, atol=1e-12)
+    np.testing.assert_allclose(given[2], np.c_[p1[:, :3], np.zeros(3)], atol=1e-9)
+    np.testing.assert_allclose(given[3], p2, atol=1e-9)
+
+
+def test_kalibr_gives_t_as_its_transform_says(tmp_path):
+    rig = random_rig(np.random.default_rng(10))
+    transform = np.eye(4)
+    transform[:3, :3], transform[:3, 3] = rig.r, rig.t
+    rows = "".join(f"  - [{', '.join(f'{v:.17g}' for v in r)}]\n" for r in transform)
+    cams = [f"  intrinsics: [{k[0, 0]}, {k[1, 1]}, {k[0, 2]}, {k[1, 2]}]\n"
+            f"  distortion_model: radtan\n  distortion_coeffs: [{', '.join(map(str, d[:4]))}]\n"
+            f"  resolution: [{SIZE[0]}, {SIZE[1]}]\n"
+            for k, d in ((rig.k1, rig.d1), (rig.k2, rig.d2))]
+    (tmp_path / "camchain.yaml").write_text(f"cam0:\n{cams[0]}cam1:\n  T_cn_cnm1:\n{rows}"
+                                            f"{cams[1]}")
+    kalibr = read_rig(tmp_path / "camchain.yaml")
+    np.testing.assert_allclose(kalibr.t, rig.t, atol=1e-12)
