@@ -13,6 +13,7 @@ from child import interruptible
 from click.testing import CliRunner
 from video_fixtures import damage_jpeg_frame, write_frames
 
+import csw
 from csw.data.synth import render
 from csw_cli.main import cli
 
@@ -280,3 +281,57 @@ def test_a_second_ctrl_c_waits_for_the_summary(tmp_path, monkeypatch):
                            out_dir=tmp_path / "maps", dmax=15, progress=ctrl_c_at_frame_3)
     summary = json.loads((tmp_path / "maps" / "summary.json").read_text())
     assert summary["interrupted"] is True and summary["counts"]["ok"] >= 3
+
+
+def test_overwrite_redoes_the_maps_of_a_video(tmp_path):
+    video = sbs_mjpeg(tmp_path / "v.avi", 3)
+    assert invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--dmax", 15)\
+        .exit_code == 0
+    stale = tmp_path / "maps" / "000001.pfm"
+    csw.write_disparity(stale, np.zeros((4, 4), np.float32))
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--dmax", 15)
+    assert "0 matched, 3 skipped" in result.output
+    assert csw.read_disparity(stale).shape == (4, 4)  # kept
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--dmax", 15,
+                    "--overwrite")
+    assert result.exit_code == 0 and "3 matched, 0 skipped" in result.output, result.output
+    assert csw.read_disparity(stale).shape == (64, 96)  # redone: the frame's size
+
+
+def test_range_each_frame_keeps_the_widest_range_when_a_deep_scene_comes_first(tmp_path):
+    shallow, deep = (np.concatenate(render(192, 96, dmax, 5)[:2], axis=1) for dmax in (12, 48))
+    video = write_frames(tmp_path / "v.avi", [deep, deep, shallow, shallow])
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "each", "--range-each-frame")
+    assert result.exit_code == 0, result.output
+    summary = json.loads((tmp_path / "each" / "summary.json").read_text())
+    ranges = [entry["range"] for entry in summary["pairs"]]
+    assert ranges[3][1] < ranges[0][1]  # the last frame's own range is the narrower
+    assert summary["range"] == [min(r[0] for r in ranges), max(r[1] for r in ranges)]
+
+
+def test_a_ctrl_c_during_a_frame_s_save_keeps_that_frame_whole(tmp_path, monkeypatch):
+    """The frame being saved when Ctrl-C comes is written whole (map and summary entry),
+    then the run stops."""
+    from csw.scale import stream
+
+    real = stream.write_disparity
+
+    def ctrl_c_while_saving_frame_2(path, values):
+        if path.name == "000002.pfm":
+            os.kill(os.getpid(), signal.SIGINT)
+            sum(range(10**5))  # were the save not held, the handler would run here
+        return real(path, values)
+
+    monkeypatch.setattr(stream, "write_disparity", ctrl_c_while_saving_frame_2)
+    saved = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            stream.match_video(sbs_mjpeg(tmp_path / "v.avi", 8), sbs=True,
+                               out_dir=tmp_path / "maps", dmax=15, progress=False,
+                               in_flight=1)
+    finally:
+        signal.signal(signal.SIGINT, saved)
+    summary = json.loads((tmp_path / "maps" / "summary.json").read_text())
+    assert summary["interrupted"] is True and summary["counts"]["ok"] == 3
+    assert [entry["frame"] for entry in summary["pairs"]] == [0, 1, 2]
+    assert (tmp_path / "maps" / "000002.pfm").exists()
