@@ -112,6 +112,13 @@ def coarse_config(small_width, f, config):
     return _coarse(small_width, f, dmin, dmax, config.threads)
 
 
+def coarse_configs():
+    """The configs a range found from a pair matches its shrunk pair with (dmin found,
+    or given as 0), whatever the pair's size: their kernels are the same, and ``csw
+    compile --preset`` compiles them, since a default run finds its range."""
+    return [_coarse(SMALL_WIDTH, 2, dmin, None, None) for dmin in (None, 0)]
+
+
 def _coarse(small_width, f, dmin, dmax, threads):
     low = -(small_width // 4) if dmin is None else math.floor(dmin / f)
     high = small_width // 2 if dmax is None else math.ceil(dmax / f)
