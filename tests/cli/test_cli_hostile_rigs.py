@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from rig_fixtures import random_rig, ros_camera_info, write_opencv
+from rig_fixtures import kalibr_text, kitti_text, random_rig, ros_camera_info, write_opencv
 
 import csw
 from csw.camera.rectify import Rectifier, stereo_rectify
@@ -141,38 +141,19 @@ def test_a_pipe_in_a_batch_fails_alone(rig_folder):
 ])
 def test_a_size_that_is_no_whole_number_is_one_line(rig_folder, fmt, change):
     rig = random_rig(np.random.default_rng(5), size=SIZE)
-    row = " ".join
     if fmt == "ros":
         for name in ("left.yaml", "right.yaml"):
             path = rig_folder / name
             path.write_text(change(path.read_text()))
         paths = [rig_folder / "left.yaml", rig_folder / "right.yaml"]
     elif fmt == "kitti":
-        def numbers(values):
-            return row(f"{v:.17g}" for v in np.ravel(values))
-        text = (f"S_02: 64 48\nK_02: {numbers(rig.k1)}\nD_02: {numbers(rig.d1)}\n"
-                f"R_02: {numbers(np.eye(3))}\nT_02: 0 0 0\nK_03: {numbers(rig.k2)}\n"
-                f"D_03: {numbers(rig.d2)}\nR_03: {numbers(rig.r)}\nT_03: {numbers(rig.t)}\n"
-                "P_rect_03: 1 0 0 0 0 1 0 0 0 0 1 0\n")
+        text = kitti_text(rig)
         paths = [rig_folder / "calib_cam_to_cam.txt"]
         paths[0].write_text(change(text))
     else:
         paths = [rig_folder / "camchain.yaml"]
         paths[0].write_text(change(kalibr_text(rig)))
     assert_refused(match_with(rig_folder, *paths), "whole numbers")
-
-
-def kalibr_text(rig):
-    transform = np.eye(4)
-    transform[:3, :3], transform[:3, 3] = rig.r, rig.t
-    cams = []
-    for k, d in ((rig.k1, rig.d1), (rig.k2, rig.d2)):
-        cams.append(f"  intrinsics: [{k[0, 0]}, {k[1, 1]}, {k[0, 2]}, {k[1, 2]}]\n"
-                    f"  distortion_model: radtan\n"
-                    f"  distortion_coeffs: [{', '.join(map(str, d[:4]))}]\n"
-                    f"  resolution: [{rig.size[0]}, {rig.size[1]}]\n")
-    rows = "".join(f"  - [{', '.join(f'{v:.17g}' for v in r)}]\n" for r in transform)
-    return f"cam0:\n{cams[0]}cam1:\n  T_cn_cnm1:\n{rows}{cams[1]}"
 
 
 @pytest.mark.parametrize("size", [(100_000, 100_000), (8000, 6000)])

@@ -8,7 +8,15 @@ import re
 import cv2
 import numpy as np
 import pytest
-from rig_fixtures import SIZE, random_rig, raw_from_rectified, ros_camera_info, write_opencv
+from rig_fixtures import (
+    SIZE,
+    kalibr_text,
+    kitti_text,
+    random_rig,
+    raw_from_rectified,
+    ros_camera_info,
+    write_opencv,
+)
 
 import csw
 from csw.camera.rectify import Rectifier, rectify_files, rectify_maps, stereo_rectify
@@ -151,32 +159,15 @@ def test_ros_camera_info_gives_back_r_and_t(tmp_path):
 
 def test_kitti_and_kalibr(tmp_path):
     rig = random_rig(np.random.default_rng(10))
-
-    def row(values):
-        return " ".join(f"{v:.17g}" for v in np.ravel(values))
-
     # KITTI: camera 0 is the left one here (R_02 = I, T_02 = 0).
-    (tmp_path / "calib_cam_to_cam.txt").write_text(
-        f"S_02: {SIZE[0]} {SIZE[1]}\nK_02: {row(rig.k1)}\nD_02: {row(rig.d1)}\n"
-        f"R_02: {row(np.eye(3))}\nT_02: 0 0 0\nS_03: {SIZE[0]} {SIZE[1]}\n"
-        f"K_03: {row(rig.k2)}\nD_03: {row(rig.d2)}\nR_03: {row(rig.r)}\n"
-        f"T_03: {row(rig.t)}\nP_rect_02: {row(np.eye(3, 4))}\nP_rect_03: {row(np.eye(3, 4))}\n")
+    (tmp_path / "calib_cam_to_cam.txt").write_text(kitti_text(rig))
     kitti = read_rig(tmp_path / "calib_cam_to_cam.txt")
     np.testing.assert_allclose(kitti.r, rig.r, atol=1e-12)
     np.testing.assert_allclose(kitti.t, rig.t, atol=1e-12)
-    transform = np.eye(4)
-    transform[:3, :3], transform[:3, 3] = rig.r, rig.t
-    (tmp_path / "camchain.yaml").write_text(
-        "cam0:\n  camera_model: pinhole\n"
-        f"  intrinsics: [{rig.k1[0, 0]}, {rig.k1[1, 1]}, {rig.k1[0, 2]}, {rig.k1[1, 2]}]\n"
-        f"  distortion_model: radtan\n  distortion_coeffs: [{', '.join(map(str, rig.d1[:4]))}]\n"
-        f"  resolution: [{SIZE[0]}, {SIZE[1]}]\ncam1:\n"
-        "  T_cn_cnm1:\n" + "".join(f"  - [{row(r).replace(' ', ', ')}]\n" for r in transform)
-        + f"  intrinsics: [{rig.k2[0, 0]}, {rig.k2[1, 1]}, {rig.k2[0, 2]}, {rig.k2[1, 2]}]\n"
-        f"  distortion_model: radtan\n  distortion_coeffs: [{', '.join(map(str, rig.d2[:4]))}]\n"
-        f"  resolution: [{SIZE[0]}, {SIZE[1]}]\n")
+    (tmp_path / "camchain.yaml").write_text(kalibr_text(rig))
     kalibr = read_rig(tmp_path / "camchain.yaml")
     np.testing.assert_allclose(kalibr.r, rig.r, atol=1e-12)
+    np.testing.assert_allclose(kalibr.t, rig.t, atol=1e-12)  # not negated
     assert kalibr.units == "m" and kalibr.size == SIZE
 
 
@@ -377,22 +368,13 @@ def test_kitti_with_camera_0_elsewhere_and_its_own_rectification(tmp_path):
     """R_02, T_02 not the identity and zero: left to right is R3 R2^T and T3 - R T2; the
     file's R_rect and P_rect are used as given, P_rect's offsets made relative."""
     rig = random_rig(np.random.default_rng(10))
-    r02, t02 = csw.camera.rectify.rodrigues(np.array([0.02, -0.05, 0.01])), \
-        np.array([0.06, -0.01, 0.02])
-    r03, t03 = rig.r @ r02, rig.r @ t02 + rig.t
-
-    def row(values):
-        return " ".join(f"{v:.17g}" for v in np.ravel(values))
-
+    r02 = csw.camera.rectify.rodrigues(np.array([0.02, -0.05, 0.01]))
     r1, r2, p1, p2, _ = opencv_rectify(rig, 0.0)
     p2_kitti, p3_kitti = p1.copy(), p2.copy()
     p2_kitti[:, 3] += [4.5, 0.1, 0.002]  # camera 2's own offset from camera 0
     p3_kitti[:, 3] += [4.5, 0.1, 0.002]
     (tmp_path / "calib_cam_to_cam.txt").write_text(
-        f"S_02: {SIZE[0]} {SIZE[1]}\nK_02: {row(rig.k1)}\nD_02: {row(rig.d1)}\n"
-        f"R_02: {row(r02)}\nT_02: {row(t02)}\nK_03: {row(rig.k2)}\nD_03: {row(rig.d2)}\n"
-        f"R_03: {row(r03)}\nT_03: {row(t03)}\nR_rect_02: {row(r1)}\nR_rect_03: {row(r2)}\n"
-        f"P_rect_02: {row(p2_kitti)}\nP_rect_03: {row(p3_kitti)}\n")
+        kitti_text(rig, r02, np.array([0.06, -0.01, 0.02]), (r1, r2, p2_kitti, p3_kitti)))
     kitti = read_rig(tmp_path / "calib_cam_to_cam.txt")
     np.testing.assert_allclose(kitti.r, rig.r, atol=1e-12)
     np.testing.assert_allclose(kitti.t, rig.t, atol=1e-12)
@@ -401,18 +383,3 @@ def test_kitti_with_camera_0_elsewhere_and_its_own_rectification(tmp_path):
     np.testing.assert_allclose(given[1], r2, atol=1e-12)
     np.testing.assert_allclose(given[2], np.c_[p1[:, :3], np.zeros(3)], atol=1e-9)
     np.testing.assert_allclose(given[3], p2, atol=1e-9)
-
-
-def test_kalibr_gives_t_as_its_transform_says(tmp_path):
-    rig = random_rig(np.random.default_rng(10))
-    transform = np.eye(4)
-    transform[:3, :3], transform[:3, 3] = rig.r, rig.t
-    rows = "".join(f"  - [{', '.join(f'{v:.17g}' for v in r)}]\n" for r in transform)
-    cams = [f"  intrinsics: [{k[0, 0]}, {k[1, 1]}, {k[0, 2]}, {k[1, 2]}]\n"
-            f"  distortion_model: radtan\n  distortion_coeffs: [{', '.join(map(str, d[:4]))}]\n"
-            f"  resolution: [{SIZE[0]}, {SIZE[1]}]\n"
-            for k, d in ((rig.k1, rig.d1), (rig.k2, rig.d2))]
-    (tmp_path / "camchain.yaml").write_text(f"cam0:\n{cams[0]}cam1:\n  T_cn_cnm1:\n{rows}"
-                                            f"{cams[1]}")
-    kalibr = read_rig(tmp_path / "camchain.yaml")
-    np.testing.assert_allclose(kalibr.t, rig.t, atol=1e-12)
