@@ -85,6 +85,24 @@ def test_an_empty_video_stops_with_its_summary_and_exit_1(tmp_path):
     assert summary["frames"] == 0 and "holds no frames" in summary["stopped"]
 
 
+def y4m(path, frames, tail=b""):
+    """A 64x48 4:2:0 YUV4MPEG2 file of ``frames`` grey frames, then ``tail``."""
+    frame = b"FRAME\n" + bytes([128]) * (64 * 48 * 3 // 2)
+    path.write_bytes(b"YUV4MPEG2 W64 H48 F30:1 Ip A1:1 C420jpeg\n" + frame * frames + tail)
+    return path
+
+
+def test_a_y4m_cut_short_stops_after_its_whole_frames(tmp_path):
+    pytest.importorskip("av")
+    whole = run("match", y4m(tmp_path / "whole.y4m", 2), "--sbs", "-O", tmp_path / "a",
+                "--dmax", 8)
+    assert whole.exit_code == 0 and "2 matched" in whole.output, whole.output
+    cut = run("match", y4m(tmp_path / "cut.y4m", 2, b"FRAME\n" + bytes(100)), "--sbs",
+              "-O", tmp_path / "b", "--dmax", 8)
+    assert cut.exit_code == 1 and "2 matched" in cut.output, cut.output
+    assert "the file ends inside frame 2 (cut short)" in cut.output
+
+
 def test_an_unwritable_kernel_cache_names_itself(tmp_path):
     from csw.kernels.store import lock
 
