@@ -374,8 +374,6 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     except KeyboardInterrupt:
         # What finished is complete on disk: say so, marked as interrupted, and stop (a
         # second Ctrl-C waits until the summary is written).
-        from .stream import signals_held
-
         with signals_held():
             write_summary(summary, log, config.as_dict(), interrupted=True)
         raise
@@ -507,3 +505,40 @@ def write_summary(path, log, options, interrupted=False, extra=None):
     atomic_write(path, write)
     return dict(head, failed=list(log.failed), noted=list(log.noted), notes=log.notes,
                 pairs=SummaryPairs(path, log.done))
+
+
+class signals_held:
+    """Within the ``with``, Ctrl-C, SIGTERM and SIGHUP wait: one that comes is acted on
+    (by the handler that was in place) when the block ends, so that a frame's outputs
+    and its summary entry are written together or not at all.  Outside the main thread,
+    where no handler can be set, it does nothing."""
+
+    NAMES = ("SIGINT", "SIGTERM", "SIGHUP")
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self.saved, self.caught = {}, []
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        for name in self.NAMES:
+            number = getattr(signal, name, None)
+            if number is not None:
+                self.saved[number] = signal.signal(
+                    number, lambda signum, frame: self.caught.append((signum, frame)))
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        for number, handler in self.saved.items():
+            signal.signal(number, handler)
+        if self.caught and exc[0] is None:
+            signum, frame = self.caught[0]
+            handler = self.saved.get(signum)
+            if callable(handler):
+                handler(signum, frame)  # raises KeyboardInterrupt, or csw's Stopped
+            elif handler == signal.SIG_DFL:
+                signal.raise_signal(signum)
+        return False

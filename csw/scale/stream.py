@@ -25,7 +25,7 @@ from ..io.pictures import INVALID, TURBO
 from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoReader, VideoWriter
 from ..matching.disparity_range import check_bounds
 from ..matching.matcher import Matcher
-from .batch import PairLog, failure_message, write_summary
+from .batch import PairLog, failure_message, signals_held, write_summary
 from .executor import progress_bar
 
 FRAME_NAME = "{index:06d}"  # a frame's outputs: 000000.pfm, 000001.pfm ...
@@ -441,40 +441,3 @@ class _Run:
         if self.preview is not None:
             self.preview.discard()
         self.log.close()
-
-
-class signals_held:
-    """Within the ``with``, Ctrl-C, SIGTERM and SIGHUP wait: one that comes is acted on
-    (by the handler that was in place) when the block ends, so that a frame's outputs
-    and its summary entry are written together or not at all.  Outside the main thread,
-    where no handler can be set, it does nothing."""
-
-    NAMES = ("SIGINT", "SIGTERM", "SIGHUP")
-
-    def __enter__(self):
-        import signal
-        import threading
-
-        self.saved, self.caught = {}, []
-        if threading.current_thread() is not threading.main_thread():
-            return self
-        for name in self.NAMES:
-            number = getattr(signal, name, None)
-            if number is not None:
-                self.saved[number] = signal.signal(
-                    number, lambda signum, frame: self.caught.append((signum, frame)))
-        return self
-
-    def __exit__(self, *exc):
-        import signal
-
-        for number, handler in self.saved.items():
-            signal.signal(number, handler)
-        if self.caught and exc[0] is None:
-            signum, frame = self.caught[0]
-            handler = self.saved.get(signum)
-            if callable(handler):
-                handler(signum, frame)  # raises KeyboardInterrupt, or csw's Stopped
-            elif handler == signal.SIG_DFL:
-                signal.raise_signal(signum)
-        return False
