@@ -88,22 +88,41 @@ class Stopped(KeyboardInterrupt):
         self.signum = signum
 
 
+SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
+
+
 def _stop(signum, frame):
     if frame is not None and "llvmlite" in frame.f_code.co_filename:
         # Inside a callback from compiled code (llvmlite's object cache), an exception
         # is printed and dropped: deliver the signal again a moment later, outside it.
         threading.Timer(0.05, os.kill, (os.getpid(), signum)).start()
         return
+    _hold_through_clean_up()
     raise Stopped(signum)
 
 
+def _hold_through_clean_up():
+    """From the first signal on, the run is cleaning up (temporaries removed, a summary
+    written): a second Ctrl-C or SIGTERM must not cut that short nor change the exit
+    code, so the rest are ignored.  Ignored, not handled: an ignored signal stays so
+    while the interpreter shuts down, where a handler is reset to the default (death
+    by the signal)."""
+    for name in SIGNALS:
+        number = getattr(signal, name, None)
+        if number is not None:
+            signal.signal(number, signal.SIG_IGN)
+
+
 def stop_on_signals():
-    """SIGTERM (a scheduler ending a job) and SIGHUP (a closed terminal) behave like
-    Ctrl-C: the work stops, nothing partial stays, and the exit code is 128 + the
-    signal's number."""
-    for name in ("SIGTERM", "SIGHUP"):
-        if hasattr(signal, name):
-            signal.signal(getattr(signal, name), _stop)
+    """Ctrl-C, SIGTERM (a scheduler ending a job) and SIGHUP (a closed terminal) stop the
+    work: nothing partial stays, and the exit code is 128 + the first signal's number
+    (see _hold_through_clean_up).  A signal the process was started with ignored stays
+    ignored, as Python leaves SIGINT: ``nohup csw ...`` must outlive its terminal, and
+    a job started in the background is not stopped by the terminal's Ctrl-C."""
+    for name in SIGNALS:
+        number = getattr(signal, name, None)
+        if number is not None and signal.getsignal(number) != signal.SIG_IGN:
+            signal.signal(number, _stop)
 
 
 def _quiet_stdout():
@@ -148,7 +167,7 @@ def main(args=None):
 
 def _interrupted(signum):
     """Say how the run ended, and exit 128 + the signal's number."""
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the clean-up is done: go quietly
+    _hold_through_clean_up()  # the clean-up is done: go quietly
     what = "interrupted" if signum == signal.SIGINT else \
         f"stopped by {signal.Signals(signum).name}"
     click.echo(f"csw: {what}; no partial file was left", err=True)

@@ -12,10 +12,13 @@ from pathlib import Path
 
 from .store import entry_key, is_stored, store
 
-# Seconds Numba takes to compile each kernel's entry on the machines csw was measured on
-# (2-core AMD EPYC); the notice before a compile sums them for what is missing.
-COMPILE_SECONDS = {"fast": 4.0, "window": 1.5, "census": 1.0, "filters": 0.8}
-START_SECONDS = 1.0  # importing Numba and its first compile's set-up
+# Seconds Numba takes to compile each kernel's entry on the 2-core AMD EPYC csw is
+# measured on, shared with other work as a CI runner is: 15 entries of `csw compile
+# --preset accurate` took 99 s there (2026-12-03), a default first run 20-55 s, where
+# an idle core's times (fast 4, window 1.5, census 1, filters 0.8) had the notice say
+# "about 7 s".  The notice before a compile sums them for what is missing.
+COMPILE_SECONDS = {"fast": 12.0, "window": 4.5, "census": 3.0, "filters": 2.4}
+START_SECONDS = 3.0  # importing Numba and its first compile's set-up
 
 _NOTICE = {"shown": False}
 

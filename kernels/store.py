@@ -165,10 +165,16 @@ class lock:
         self.folder = folder
 
     def __enter__(self):
-        make_folder(self.folder)
-        if not _safe_mode(self.folder):  # made by an older csw under a loose umask
-            os.chmod(self.folder, FOLDER_MODE)
-        self.handle = open(os.open(self.folder / ".lock", os.O_RDWR | os.O_CREAT, FILE_MODE))
+        try:
+            make_folder(self.folder)
+            if not _safe_mode(self.folder):  # made by an older csw under a loose umask
+                os.chmod(self.folder, FOLDER_MODE)
+            self.handle = open(os.open(self.folder / ".lock", os.O_RDWR | os.O_CREAT,
+                                       FILE_MODE))
+        except OSError as exc:  # the path alone would not say it is csw's kernel cache
+            raise OSError(exc.errno, f"{exc.strerror}; it is csw's kernel cache: set "
+                                     "CSW_KERNEL_CACHE to a writable folder",
+                          str(self.folder)) from None
         try:
             import fcntl
 

@@ -64,3 +64,38 @@ def raw_from_rectified(rectified, k, d, r, p):
     return cv2.remap(rectified, where[..., 0].astype(np.float32),
                      where[..., 1].astype(np.float32), cv2.INTER_LINEAR,
                      borderMode=cv2.BORDER_REFLECT)
+
+
+def numbers(values):
+    return " ".join(f"{v:.17g}" for v in np.ravel(values))
+
+
+def kitti_text(rig, r02=None, t02=None, rect=None):
+    """A KITTI calib_cam_to_cam.txt of ``rig`` (cameras 02 and 03), camera 0 at (r02,
+    t02) from the left one (default: the left one itself); rect: (R_rect_02, R_rect_03,
+    P_rect_02, P_rect_03), else only identity P_rect matrices."""
+    r02 = np.eye(3) if r02 is None else r02
+    t02 = np.zeros(3) if t02 is None else t02
+    r03, t03 = rig.r @ r02, rig.r @ t02 + rig.t
+    text = (f"S_02: {rig.size[0]} {rig.size[1]}\nK_02: {numbers(rig.k1)}\n"
+            f"D_02: {numbers(rig.d1)}\nR_02: {numbers(r02)}\nT_02: {numbers(t02)}\n"
+            f"S_03: {rig.size[0]} {rig.size[1]}\nK_03: {numbers(rig.k2)}\n"
+            f"D_03: {numbers(rig.d2)}\nR_03: {numbers(r03)}\nT_03: {numbers(t03)}\n")
+    if rect is None:
+        return text + f"P_rect_02: {numbers(np.eye(3, 4))}\nP_rect_03: {numbers(np.eye(3, 4))}\n"
+    return text + "".join(f"{key}: {numbers(m)}\n" for key, m in zip(
+        ("R_rect_02", "R_rect_03", "P_rect_02", "P_rect_03"), rect, strict=True))
+
+
+def kalibr_text(rig):
+    """A Kalibr camchain of ``rig`` (radtan, its first 4 coefficients)."""
+    transform = np.eye(4)
+    transform[:3, :3], transform[:3, 3] = rig.r, rig.t
+    cams = [f"  camera_model: pinhole\n"
+            f"  intrinsics: [{k[0, 0]}, {k[1, 1]}, {k[0, 2]}, {k[1, 2]}]\n"
+            f"  distortion_model: radtan\n"
+            f"  distortion_coeffs: [{', '.join(map(str, d[:4]))}]\n"
+            f"  resolution: [{rig.size[0]}, {rig.size[1]}]\n"
+            for k, d in ((rig.k1, rig.d1), (rig.k2, rig.d2))]
+    rows = "".join(f"  - [{numbers(r).replace(' ', ', ')}]\n" for r in transform)
+    return f"cam0:\n{cams[0]}cam1:\n  T_cn_cnm1:\n{rows}{cams[1]}"

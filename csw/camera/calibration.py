@@ -9,6 +9,7 @@ d is the point Q (x, y, d, 1) of OpenCV's reprojection (x right, y down, z forwa
 the left camera's frame).
 """
 
+import functools
 import math
 import re
 from dataclasses import dataclass, replace
@@ -20,7 +21,9 @@ from ..config.params import OptionError
 from ..io import safety
 from .rig import UNITS
 
-MAX_FILE_BYTES = 1 << 20  # a calibration is a few lines: a larger file is not one
+MAX_FILE_BYTES = safety.SMALL_FILE_BYTES  # a calibration is a few lines
+
+FLOAT32_MAX = 3.4e38
 
 
 
@@ -65,6 +68,11 @@ class Calibration:
             which = "focal length" if self.focal == 0 else "baseline"
             raise ValueError(f"{self.source}: the {which} is 0, so no depth follows from "
                              "it; check the calibration")
+        # Depths are float32: beyond its range every depth would be inf.
+        if not abs(self.focal * self.baseline) < FLOAT32_MAX:
+            raise ValueError(f"{self.source}: focal length x baseline ({self.focal:g} x "
+                             f"{self.baseline:g}) is too large to give a depth; check the "
+                             "calibration")
         if self.units is not None and self.units not in UNITS:
             raise ValueError(f"{self.source}: unknown units {self.units!r}; use "
                              f"{', '.join(UNITS)}")
@@ -174,24 +182,15 @@ def read_calibration(path):
     YAML/XML file with a Q node, or a 4x4 Q in a .npy file.  ValueError (an OptionError
     for "calib"), naming the file and what is missing, when it is none of them."""
     path = Path(path)
-    safety.protect(path)
+    refuse = functools.partial(OptionError, "calib")
     try:
-        kind = safety.kind_of(path)
-        if kind is None:
-            raise FileNotFoundError
-        if kind != "file":
-            raise OptionError("calib", f"{path} is a {kind}, not a calibration file")
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise OptionError("calib", f"{path}: {size} bytes is too large for a "
-                                       f"calibration (at most {MAX_FILE_BYTES})")
         if path.suffix.lower() == ".npy":
             from ..io.formats import load_npy
 
+            safety.check_small(path, "a calibration file", refuse, MAX_FILE_BYTES)
             return from_q(load_npy(path), str(path))
-        text = path.read_text(errors="replace")
-    except FileNotFoundError:
-        raise OptionError("calib", f"{path}: no such file") from None
+        text = safety.read_small(path, "a calibration file", refuse, MAX_FILE_BYTES)\
+            .decode(errors="replace")
     except OptionError:
         raise
     except OSError as exc:

@@ -38,6 +38,11 @@ class Rectifier:
         if not (isinstance(alpha, (int, float)) and -1 <= alpha <= 1):
             raise ValueError(f"alpha must be a number from 0 to 1 (or -1: no scaling), got "
                              f"{alpha!r}")
+        from ..io.images import check_pixels
+
+        # The maps take 12 bytes a pixel: a rig's declared size is held to the images'
+        # pixel limit before they are built.
+        check_pixels(rig.size[::-1], rig.source)
         self.rig, self.alpha, self.threads = rig, alpha, threads
         fisheye = rig.model == "equidistant"
         r1, r2, p1, p2 = rectification(rig, alpha)
@@ -53,6 +58,9 @@ class Rectifier:
                        (height, width), threads)
             for k, d, rr, p in ((rig.k1, rig.d1, r1, p1), (rig.k2, rig.d2, r2, p2)))
         self.valid = tuple(f.valid.view(np.bool_) for f in self.fixed)
+        if not all(v.any() for v in self.valid):  # only black images would follow
+            raise ValueError(f"{rig.source}: no pixel of the rectified images has a source "
+                             "in the raw ones; check the rig (its size, R and T) and alpha")
         self._all_valid = tuple(bool(v.all()) for v in self.valid)
         self.calibration = rectified_calibration(rig, p1, p2)
 
@@ -140,6 +148,26 @@ def _rig_files(rig):
     return {f"rig {i + 1}": path for i, path in enumerate(getattr(rig, "paths", ()))}
 
 
+def check_images(rig, *paths):
+    """Each image file's size, as its header gives it, against the rig's, before any
+    map is built: OptionError naming the image ("left", "right") that can't be read,
+    or the rig when the sizes differ."""
+    from ..config.params import OptionError
+    from ..io.images import ImageError
+    from ..io.sources import open_source
+
+    for path, name in zip(paths, ("left", "right"), strict=False):
+        try:
+            height, width = open_source(path, name, probe=False).shape[:2]
+        except ImageError as exc:
+            exc.option = name
+            raise
+        try:
+            rig.check_size((width, height), f"the {name} image")
+        except ValueError as exc:
+            raise OptionError("rig", str(exc)) from None
+
+
 def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
     """Rectify a raw pair of image files with ``rig`` (a Rig) into ``out_dir``:
     left.png, right.png (the images' own type, gray or colour) and calib.txt (the
@@ -157,6 +185,7 @@ def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
                "calib": out_dir / "calib.txt"}
     check_outputs({"left_raw": left, "right_raw": right, **_rig_files(rig)}, outputs,
                   {"left": (".png",), "right": (".png",), "calib": (".txt",)})
+    check_images(rig, left, right)
     rect = Rectifier(rig, alpha, threads)
     images = []
     for path, name in ((left, "left"), (right, "right")):
@@ -178,14 +207,15 @@ def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
     return rect
 
 
-def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None):
+def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None, progress=False):
     """Rectify every pair of ``jobs`` (csw.Job, from csw.jobs_from_folders or
     csw.jobs_from_manifest) with one Rectifier, its maps built once, into
     ``out_dir/left/NAME.png`` and ``out_dir/right/NAME.png``, with the rectified
     calibration in ``out_dir/left/calib.txt`` (where ``csw match out_dir/left
     out_dir/right -O maps`` finds it beside each left image).  Each pair is written whole
     or not at all; a pair that fails is reported and the others go on.  Returns
-    {"ok": count, "failed": [(name, one-line error), ...], "rectifier": the Rectifier}."""
+    {"ok": count, "failed": [(name, one-line error), ...], "rectifier": the Rectifier}.
+    progress: a progress bar on stderr."""
     from pathlib import Path
 
     from ..io.atomic import atomic_write_all
@@ -200,7 +230,10 @@ def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None):
     text = rect.calib_text().encode()
     check_outputs(_rig_files(rig), {"calib": calib}, {"calib": (".txt",)})
     atomic_write_all([(calib, lambda tmp: Path(tmp).write_bytes(text))])
+    from ..scale.executor import progress_bar
+
     done, failed = 0, []
+    bar = progress_bar(len(jobs), "csw rectify", "pair", progress)
     for job in jobs:
         try:
             if job.problem:
@@ -216,4 +249,6 @@ def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None):
         except (ValueError, OSError) as exc:
             failed.append((job.name, str(exc).splitlines()[0] if str(exc) else
                            type(exc).__name__))
+        bar.update(1)
+    bar.close()
     return {"ok": done, "failed": failed, "rectifier": rect}

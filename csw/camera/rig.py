@@ -30,6 +30,7 @@ UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "um": 1e-6, "km": 1000.0, "in": 0.02
          "ft": 0.3048}
 
 MODELS = ("plumb_bob", "rational_polynomial", "equidistant")
+LARGEST = 1e12  # a focal length in pixels, a baseline in micrometres: far below this
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,6 +63,9 @@ class Rig:
                 raise ValueError(f"{self.source}: {name} must be {shape}, got {value.shape}")
             if not np.isfinite(value).all():
                 raise ValueError(f"{self.source}: {name} holds a NaN or an infinity")
+            if np.abs(value).max() > LARGEST:  # no camera's: and its products overflow
+                raise ValueError(f"{self.source}: {name} holds {np.abs(value).max():g}, "
+                                 "too large for a camera's calibration")
         for k in (self.k1, self.k2):
             if abs(np.linalg.det(k)) < 1e-12 or k[0, 0] <= 0 or k[1, 1] <= 0:
                 raise ValueError(f"{self.source}: a camera matrix is singular or has a "
@@ -90,10 +94,15 @@ class Rig:
                     coefficients(d)
                 except ValueError as exc:
                     raise ValueError(f"{self.source}: {exc}") from None
-        width, height = self.size
-        if not (isinstance(width, int) and isinstance(height, int) and width > 0 and
-                height > 0):
+        if not (len(self.size) == 2 and all(isinstance(n, int) and n > 0 for n in self.size)):
             raise ValueError(f"{self.source}: the image size must be two whole numbers > 0")
+
+    def check_size(self, size, what="the left image"):
+        """ValueError unless ``size`` (width, height), an image's as its header gives it,
+        is the rig's: checked before any map is built for the rig's size."""
+        if tuple(size) != tuple(self.size):
+            raise ValueError(f"{self.source}: the rig is for {self.size[0]}x"
+                             f"{self.size[1]} images but {what} is {size[0]}x{size[1]}")
 
     @property
     def baseline(self):
@@ -108,15 +117,18 @@ def read_rig(*paths, size=None):
     if not 1 <= len(paths) <= 2:
         raise ValueError("give the rig as one file, or two (OpenCV intrinsics and "
                          "extrinsics, or ROS left and right camera_info)")
-    texts = []
-    for path in paths:
-        try:
-            texts.append(Path(path).read_text(errors="replace"))
-        except OSError as exc:
-            raise ValueError(f"{path}: can't read it ({exc.strerror or exc})") from None
     from dataclasses import replace
 
-    rig = _read(texts, " and ".join(str(p) for p in paths), len(paths), size)
+    from ..io.safety import read_small
+
+    texts = [read_small(path, "a rig calibration file").decode(errors="replace")
+             for path in paths]
+    names = " and ".join(str(p) for p in paths)
+    try:
+        with np.errstate(all="ignore"):  # huge values are refused by Rig, not warned of
+            rig = _read(texts, names, len(paths), size)
+    except (OverflowError, TypeError) as exc:  # a size of .inf, a list where a number is
+        raise ValueError(f"{names}: a value is not a number csw can use ({exc})") from None
     return replace(rig, paths=tuple(Path(p) for p in paths))
 
 
@@ -152,9 +164,12 @@ def _numbers(text, source, key):
 
 def _opencv_matrix(text, key, source, shape=None, required=True):
     """A FileStorage matrix by name, YAML or XML; None when absent and not required."""
-    found = re.search(rf"^\s*{key}\s*:\s*(?:!!opencv-matrix)?.*?data\s*:\s*\[(.*?)\]",
-                      text, re.MULTILINE | re.DOTALL) or \
-        re.search(rf"<{key}\b[^>]*>.*?<data>(.*?)</data>", text, re.DOTALL)
+    node = _yaml_node(text, key)
+    if node is None:  # XML, or absent
+        found = re.search(rf"<{key}\b[^>]*>.*?<data>(.*?)</data>", text, re.DOTALL)
+    else:  # a plain list, or an !!opencv-matrix with its data
+        found = re.match(r"\s*\[(.*?)\]", node, re.DOTALL) or \
+            re.search(r"\bdata\s*:\s*\[(.*?)\]", node, re.DOTALL)
     if not found:
         if required:
             raise ValueError(f"{source}: no {key} matrix")
@@ -164,6 +179,22 @@ def _opencv_matrix(text, key, source, shape=None, required=True):
         raise ValueError(f"{source}: {key} must hold {math.prod(shape)} numbers, got "
                          f"{values.size}")
     return values.reshape(shape) if shape is not None else values
+
+
+def _yaml_node(text, key):
+    """The text of the YAML node ``key`` (a regular expression) names: what follows its
+    colon, and the lines after it indented deeper than the key; None when absent.  A
+    node is read only within itself: a plain list (``R: [1, 0, 0, ...]``) is that list,
+    never the next matrix's data."""
+    found = re.search(rf"^([ \t]*)(?:{key})[ \t]*:(.*)$", text, re.MULTILINE)
+    if not found:
+        return None
+    lines, indent = [found.group(2)], len(found.group(1))
+    for line in text[found.end():].splitlines()[1:]:
+        if line.strip() and len(line) - len(line.lstrip()) <= indent:
+            break
+        lines.append(line)
+    return "\n".join(lines)
 
 
 def _opencv_size(text, source, size):
@@ -178,11 +209,25 @@ def _opencv_size(text, source, size):
                          text, re.MULTILINE)
         pair = [int(pair.group(1)), int(pair.group(2))] if pair else None
     if pair is not None and len(pair) == 2:
-        return int(pair[0]), int(pair[1])
+        return _whole_size(pair, source)
     if size is None:
         raise ValueError(f"{source}: the file doesn't say the image size; give it (the "
                          "raw images' size is used when matching)")
-    return tuple(int(v) for v in size)
+    return _whole_size(size, source)
+
+
+def _whole_size(values, source):
+    """(width, height) from two whole numbers > 0 as a file gives them (a YAML value may
+    be anything: a string, a list, .inf); ValueError otherwise."""
+    try:
+        numbers = [float(v) for v in values]
+    except (TypeError, ValueError):
+        numbers = []
+    if len(numbers) != 2 or not all(math.isfinite(n) and n >= 1 and abs(n - round(n)) < 1e-6
+                                    for n in numbers):
+        raise ValueError(f"{source}: the image size must be two whole numbers > 0, got "
+                         f"{str(values)[:40]}")
+    return tuple(round(n) for n in numbers)
 
 
 def _opencv(text, source, size):
@@ -221,11 +266,33 @@ def _rotation(vector, source):
     return rodrigues(vector)
 
 
+MAX_YAML_DEPTH = 32  # a rig file nests three or four levels
+
+
 def _yaml(text, source):
+    """A YAML document, read safely: no aliases (a kilobyte of them, each naming the last
+    several times, expands to gigabytes) and no deeper nesting than MAX_YAML_DEPTH (the
+    composer recurses), each refused in one line."""
     import yaml
 
+    class Loader(yaml.SafeLoader):
+        depth = 0
+
+        def compose_node(self, parent, index):
+            if self.check_event(yaml.AliasEvent):
+                raise ValueError(f"{source}: YAML aliases (*name) are not read in a rig file")
+            self.depth += 1
+            if self.depth > MAX_YAML_DEPTH:
+                raise ValueError(f"{source}: the YAML nests deeper than {MAX_YAML_DEPTH} "
+                                 "levels; not a rig file")
+            try:
+                return super().compose_node(parent, index)
+            finally:
+                self.depth -= 1
+
+    text = re.sub(r"^%YAML[: ]1\.\d\s*$", "", text, flags=re.MULTILINE)
     try:
-        return yaml.safe_load(re.sub(r"^%YAML[: ]1\.\d\s*$", "", text, flags=re.MULTILINE))
+        return yaml.load(text, Loader)  # noqa: S506 (a SafeLoader)
     except yaml.YAMLError as exc:
         raise ValueError(f"{source}: not readable YAML "
                          f"({str(exc).splitlines()[0]})") from None
@@ -258,7 +325,8 @@ def _ros(texts, source):
     d1, d2 = (_field(c, "distortion_coefficients", source) for c in cams)
     r1, r2 = (_field(c, "rectification_matrix", source, (3, 3)) for c in cams)
     p1, p2 = (_field(c, "projection_matrix", source, (3, 4)) for c in cams)
-    sizes = {(int(c.get("image_width", 0)), int(c.get("image_height", 0))) for c in cams}
+    sizes = {_whole_size((c.get("image_width"), c.get("image_height")), source)
+             for c in cams}
     if len(sizes) != 1:
         raise ValueError(f"{source}: the left and right camera_info give different sizes")
     models = {ROS_MODELS.get(str(c.get("distortion_model", "plumb_bob"))) for c in cams}
@@ -268,6 +336,9 @@ def _ros(texts, source):
     model = models.pop()
     if model == "plumb_bob" and max(d1.size, d2.size) >= 8:
         model = "rational_polynomial"
+    if p1[0, 3] != 0 and p2[0, 3] == 0:
+        raise ValueError(f"{source}: the first camera_info is the right camera's (its "
+                         "projection matrix holds the baseline); give the left one first")
     # Rectified frames: R1 X_left = X_rect, R2 X_right = X_rect - (B, 0, 0), with
     # P2[0, 3] = -fx B: so R = R2^T R1 and T = R2^T (P2[0, 3] / fx, 0, 0).
     shift = np.array([p2[0, 3] / p2[0, 0], p2[1, 3] / p2[1, 1], 0.0])
@@ -294,7 +365,7 @@ def _kitti(text, source):
     t2_, t3_ = matrix("T_02", (3,)), matrix("T_03", (3,))
     r = r3_ @ r2_.T
     t = t3_ - r @ t2_
-    width, height = (int(round(v)) for v in matrix("S_02", (2,)))
+    width, height = _whole_size(matrix("S_02", (2,)), source)
     rect = None
     if all(k in rows for k in ("R_rect_02", "R_rect_03", "P_rect_02", "P_rect_03")):
         # R_rect_0i: camera i's rectifying rotation (raw to rectified frame).
@@ -331,8 +402,8 @@ def _kalibr(text, source):
         raise ValueError(f"{source}: unknown or mixed distortion models (radtan, "
                          "equidistant)")
     transform = _field(cams[1], "T_cn_cnm1", source, (4, 4))  # cam0 -> cam1
-    sizes = {tuple(int(v) for v in cam.get("resolution", ())) for cam in cams}
-    if len(sizes) != 1 or len(next(iter(sizes))) != 2:
+    sizes = {_whole_size(cam.get("resolution", ()), source) for cam in cams}
+    if len(sizes) != 1:
         raise ValueError(f"{source}: cam0 and cam1 need one resolution [width, height]")
     return Rig(ks[0], ds[0], ks[1], ds[1], transform[:3, :3], transform[:3, 3],
                sizes.pop(), models[0], None, "m", source)

@@ -157,6 +157,10 @@ ENGINE_HELP = ("fast: running sums, O(1) per (pixel, disparity); window: a full 
                "per candidate, the paper's method, where CSW's skipped candidates save real "
                "time. Both give identical results.")
 
+# More threads than any machine csw runs on has cores: a larger number is a mistake, refused
+# with the options rather than when a frame's stripes are planned.
+MAX_THREADS = 1024
+
 OPTIONS = {o.name: o for o in [
     Option("preset", "choice", "accurate", choices=("accurate", "sgm", "raw", "paper"),
            help="accurate: census, left-right check and speckle removal, for real "
@@ -186,7 +190,7 @@ OPTIONS = {o.name: o for o in [
     Option("csw_margin", "auto_int", None, low=0, high=1000, default_text=CSW_MARGIN_TEXT,
            help="The unique rule's margin in percent: the best cost must beat every "
                 "candidate 2 or more disparities away by this much."),
-    Option("threads", "auto_int", None, low=1, default_text="all cores",
+    Option("threads", "auto_int", None, low=1, high=MAX_THREADS, default_text="all cores",
            help="Threads for row-parallel matching."),
     # The pipeline's stages (csw.matching.pipeline), all off in the paper's contract.
     Option("prefilter", "choice", "none", choices=("none", "xsobel"), stage=True,
@@ -382,6 +386,9 @@ def resolve(**given):
     opts = {**DEFAULTS, **PRESETS[preset], **given}
     check_csw_use(opts["csw"], given)
     opts["csw_margin"] = csw_margin_for(opts["cost"], opts["csw_margin"])
+    if "auto" not in (opts["dmin"], opts["dmax"]) and opts["dmin"] > opts["dmax"]:
+        raise OptionError("dmin", f"dmin ({opts['dmin']}) must not exceed dmax "
+                                  f"({opts['dmax']})")
     check_sgm_use(opts, given)
     stages = Stages(**{k: opts.pop(k) for k in OFF})
     range_source = "given" if {"dmin", "dmax"} & set(given) else \

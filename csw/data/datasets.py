@@ -261,7 +261,7 @@ def _fetch(relpath, url, digest, member, target, progress):
         raise DataError(f"{relpath}: download from {url} failed its checksum ({exc}); "
                         "nothing was kept") from None
     except Exception as exc:  # network errors come in many types
-        raise DataError(f"{relpath}: can't download {url} ({type(exc).__name__}: {exc}); "
+        raise DataError(f"{relpath}: can't download {url} ({_network_reason(exc)}); "
                         "set CSW_DATA_DIR or --data-dir to a folder that has the data") from None
     fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.")
     os.close(fd)
@@ -278,6 +278,19 @@ def _fetch(relpath, url, digest, member, target, progress):
         if os.path.exists(tmp):
             os.unlink(tmp)
     return target
+
+
+def _network_reason(exc):
+    """A download's error in a few words: requests' messages carry the whole chain of
+    causes, hundreds of characters of it."""
+    text = str(exc)
+    for clue, reason in (("resolve", "the host's name can't be resolved: no network?"),
+                         ("timed out", "the connection timed out"),
+                         ("refused", "the connection was refused"),
+                         ("SSL", "a TLS error")):
+        if clue in text:
+            return reason
+    return f"{type(exc).__name__}: {text.splitlines()[0][:80] if text else ''}"
 
 
 def _archive_dir():

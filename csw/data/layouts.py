@@ -84,10 +84,9 @@ class Scene:
 
 def read_ndisp(path):
     """``ndisp`` from a Middlebury calib.txt, or None if it has none; DataError if bad."""
-    try:
-        text = Path(path).read_text(errors="replace")
-    except OSError as exc:
-        raise DataError(f"{path}: can't read ({exc.strerror or exc})") from None
+    from ..io.safety import read_small
+
+    text = read_small(path, "a calib.txt", DataError).decode(errors="replace")
     found = re.search(r"^\s*ndisp\s*=\s*(\S+)", text, re.MULTILINE)
     if not found:
         return None

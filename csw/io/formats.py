@@ -134,7 +134,18 @@ def png_writer(image):
     def write(tmp):
         # Encoded in memory, then written: a plugin writing to a full disk fails again
         # when it is collected, and that second error would reach the user's terminal.
-        Path(tmp).write_bytes(iio.imwrite("<bytes>", image, extension=".png"))
+        if image.dtype == np.uint16 and image.ndim == 3:  # Pillow can't write 16-bit colour
+            import io
+
+            import png
+
+            height, width, planes = image.shape
+            buffer = io.BytesIO()
+            png.Writer(width, height, greyscale=planes < 3, alpha=planes in (2, 4),
+                       bitdepth=16).write_array(buffer, image.reshape(-1))
+            Path(tmp).write_bytes(buffer.getvalue())
+        else:
+            Path(tmp).write_bytes(iio.imwrite("<bytes>", image, extension=".png"))
     return write
 
 

@@ -119,8 +119,7 @@ def _decode(path, gray=False):
     TIFFs with tifffile (as the striped path reads them, so both see the same pixels),
     CMYK (JPEG) converted to RGB, everything else by Pillow through imageio (palettes
     expanded, the first frame of multi-frame files)."""
-    safety.check_input(path, "an image file", ImageError)
-    png16 = png16_header(path)
+    png16 = png16_header(path)  # the file's kind checked first, in png16_header
     if png16 is not None:
         check_pixels(png16, path)
         return _read_png16(path)
@@ -157,6 +156,7 @@ def image_header(path):
 
     from PIL import Image
 
+    safety.check_input(path, "an image file", ImageError)  # before open: a pipe blocks it
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", Image.DecompressionBombWarning)
@@ -181,6 +181,7 @@ def png16_header(path):
     """(H, W) of a PNG with 16-bit pixels and colour or alpha, which Pillow would cut to
     8 bits (IHDR: bit depth 16, colour type 2 RGB, 4 gray + alpha or 6 RGBA); None for
     any other file."""
+    safety.check_input(path, "an image file", ImageError)  # before open: a pipe blocks it
     try:
         with open(path, "rb") as f:
             head = f.read(26)

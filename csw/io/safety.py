@@ -70,6 +70,46 @@ def check_input(path, what, error=ValueError):
         raise error(f"{path} is a {kind}, not {what}")
 
 
+# A calibration, a rig, a calib.txt: a few lines.  A larger file is not one, and reading
+# it whole (/dev/zero has no end) must not be what finds that out.
+SMALL_FILE_BYTES = 1 << 20
+
+
+def check_small(path, what, error=ValueError, limit=SMALL_FILE_BYTES):
+    """``error`` naming ``path`` unless it is a regular file of at most ``limit`` bytes:
+    judged by os.stat, before anything opens it, so a pipe or a device is refused
+    rather than waited on or read without end."""
+    protect(path)
+    kind = kind_of(path)
+    if kind is None:
+        raise error(f"{path}: no such file")
+    if kind != "file":
+        raise error(f"{path} is a {kind}, not {what}")
+    try:
+        size = os.stat(path).st_size
+    except OSError as exc:
+        raise error(f"{path}: can't read it ({exc.strerror or exc})") from None
+    if size > limit:
+        raise error(f"{path}: {size} bytes is too large for {what} (at most {limit})")
+
+
+def read_small(path, what, error=ValueError, limit=SMALL_FILE_BYTES):
+    """The bytes of a small input (a calibration, a rig file), after :func:`check_small`.
+    Opened without blocking and read to at most ``limit`` bytes, so that a file swapped
+    for a pipe or grown since the check can't hang the run or fill its memory."""
+    check_small(path, what, error, limit)
+    try:
+        handle = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+        with os.fdopen(handle, "rb") as f:
+            regular = stat.S_ISREG(os.fstat(f.fileno()).st_mode)
+            data = f.read(limit + 1) if regular else b""
+    except OSError as exc:
+        raise error(f"{path}: can't read it ({exc.strerror or exc})") from None
+    if not regular or len(data) > limit:
+        raise error(f"{path} changed while it was read; not {what}")
+    return data
+
+
 def check_target(path, option=None, folder_ok=False):
     """ValueError (an OptionError naming ``option``) unless ``path`` may be written: not
     an input of a guarding run, and a regular file or nothing yet (a folder only with
@@ -101,6 +141,8 @@ def check_outputs(inputs, outputs, allowed):
             continue
         path = Path(path)
         suffix = path.suffix.lower()
+        if path.is_dir() and suffix != ".zarr":  # said first: a folder has no extension
+            raise _error(f"{str(path)!r} is a folder; give a file name", name)
         if suffix not in allowed[name]:
             raise _error(f"unknown extension {path.suffix or '(none)'!r}; use "
                          f"{', '.join(allowed[name])}", name)

@@ -100,9 +100,11 @@ class VideoReader:
 
     def __iter__(self):
         av = _av()
-        index = 0
+        index = end = 0
         try:
             for packet in self._container.demux(self._stream):
+                if packet.pos is not None and packet.size:
+                    end = packet.pos + packet.size
                 try:
                     decoded = packet.decode()
                 except av.error.FFmpegError as exc:
@@ -115,6 +117,14 @@ class VideoReader:
                 for frame in decoded:
                     yield (index, *self._arrays(frame))
                     index += 1
+            if index == 0:  # the run stops, saying so (a header's count can be a guess:
+                # only an empty file is sure to be wrong)
+                raise VideoError(f"{self.path}: holds no frames")
+            if self._container.format.name == "yuv4mpegpipe" and \
+                    os.path.getsize(self.path) > end:  # raw frames end to end: the demuxer
+                # drops a last frame that the file cuts short, without a word
+                raise VideoError(f"{self.path}: the file ends inside frame {index} (cut "
+                                 "short)")
         except av.error.FFmpegError as exc:  # the container itself, past a point
             yield index, VideoError(f"{self.path}: the file is damaged after frame "
                                     f"{index} ({_reason(exc)})"), None

@@ -61,6 +61,22 @@ def decide(config, width, calibration=None, shrunk=None):
     return config.replace(dmin=low, dmax=high, range_source=source)
 
 
+def check_bounds(config, width):
+    """OptionError now when a bound given can't fit a pair ``width`` wide (a video's
+    frames, known from its header before any is decoded), as the kernels would refuse
+    it on every pair; an "auto" bound is taken as the widest it could be."""
+    from ..config.params import OptionError
+    from ..kernels.contract import check_range
+
+    dmin = -width + 1 if config.dmin == "auto" else config.dmin
+    dmax = width - 1 if config.dmax == "auto" else config.dmax
+    try:
+        check_range(dmin, dmax, width)
+    except ValueError as exc:
+        raise OptionError("dmin" if str(exc).startswith("dmin") else "dmax",
+                          str(exc)) from None
+
+
 def factor(width):
     """The shrink factor for an image ``width`` wide: a power of two, at least 2."""
     f = 2
@@ -96,6 +112,13 @@ def coarse_config(small_width, f, config):
     return _coarse(small_width, f, dmin, dmax, config.threads)
 
 
+def coarse_configs():
+    """The configs a range found from a pair matches its shrunk pair with (dmin found,
+    or given as 0), whatever the pair's size: their kernels are the same, and ``csw
+    compile --preset`` compiles them, since a default run finds its range."""
+    return [_coarse(SMALL_WIDTH, 2, dmin, None, None) for dmin in (None, 0)]
+
+
 def _coarse(small_width, f, dmin, dmax, threads):
     low = -(small_width // 4) if dmin is None else math.floor(dmin / f)
     high = small_width // 2 if dmax is None else math.ceil(dmax / f)
@@ -114,8 +137,14 @@ def estimate(small_left, small_right, f, width, dmin=None, dmax=None, threads=No
     confident disparity to go by."""
     config = _coarse(small_left.shape[1], f, dmin, dmax, threads)
     low, high = config.dmin, config.dmax
-    found = run_pipeline(small_left, small_right, dict(config.kernel_args(), csw=False, tau=-1),
-                         config.stages)[0]
+    try:
+        found = run_pipeline(small_left, small_right,
+                             dict(config.kernel_args(), csw=False, tau=-1), config.stages)[0]
+    except ValueError as exc:  # its sizes are the shrunk pair's: say so, not the user's
+        height, small = small_left.shape[:2]
+        raise ValueError(f"can't find the disparity range from the pair ({width} wide, "
+                         f"shrunk {f} times to {small}x{height}: {exc}); give --dmin and "
+                         "--dmax") from None
     # A match at the search's end is no minimum found (the best may lie beyond it), and
     # where a texture repeats, a whole band of them can pass the checks; leave them out.
     values = found[np.isfinite(found) & (found > low) & (found < high)]

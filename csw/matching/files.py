@@ -107,19 +107,26 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
         raise TypeError("give match_files its options or a resolved config, not both")
     # First, and once: a bad option fails before any file is read.
     config = resolve(**options) if config is None else config
-    rectifier = _rectifier(rig, alpha, calib, config, frame)
-    calibration = rectifier.calibration if rectifier else calib_module.resolve(calib, left)
+    _check_rig_options(rig, calib, frame)
     try:
         shape = open_source(left, "left", probe=False, striped=memory_limit is not None).shape
     except ImageError as exc:
         exc.option = "left"
         raise
+    if rig is not None:  # the rig's size against the image's, before its maps are built
+        from ..camera.rectify import Rectifier
+
+        try:
+            getattr(rig, "rig", rig).check_size((shape[1], shape[0]))
+        except ValueError as exc:
+            raise OptionError("rig", str(exc)) from None
+        rectifier = rig if isinstance(rig, Rectifier) else Rectifier(rig, alpha,
+                                                                     config.threads)
+    else:
+        rectifier = None
+    calibration = rectifier.calibration if rectifier else calib_module.resolve(calib, left)
     if calibration is not None:
         calibration.check_size(shape)
-    if rectifier is not None and rectifier.rig.size != (shape[1], shape[0]):
-        raise OptionError("rig", f"{rectifier.rig.source} is for {rectifier.rig.size[0]}x"
-                                 f"{rectifier.rig.size[1]} images but the left image is "
-                                 f"{shape[1]}x{shape[0]}")
     config = disparity_range.decide(config, shape[1], calibration)
     outputs = {"output": output, "confidence": confidence, "preview": preview,
                "cost_map": cost_map, "depth": depth, "cloud": cloud,
@@ -193,18 +200,13 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     return _noted(result, calibration)
 
 
-def _rectifier(rig, alpha, calib, config, frame):
-    """The Rectifier a raw pair from ``rig`` is rectified with, or None."""
+def _check_rig_options(rig, calib, frame):
+    """The options around a rig, before any file is read."""
     if frame not in ("rectified", "camera"):
         raise OptionError("frame", f"frame must be 'rectified' or 'camera', got {frame!r}")
-    if rig is None:
-        return None
-    if calib is not None:
+    if rig is not None and calib is not None:
         raise OptionError("calib", "a rig gives the rectified pair's calibration: drop "
                                    "--calib (or --rig)")
-    from ..camera.rectify import Rectifier
-
-    return rig if isinstance(rig, Rectifier) else Rectifier(rig, alpha, config.threads)
 
 
 def _noted(result, calibration):

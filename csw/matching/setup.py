@@ -123,7 +123,10 @@ def config_entries(config, dtype, confidence=False):
 
 def preset_entries(presets=None):
     """Every kernel entry the presets run, plain and with CSW, for 8- and 16-bit images,
-    and the luma of colour pairs: what ``csw compile --preset`` puts in the cache."""
+    with the coarse match that finds a range "auto" (every preset's default), and the
+    luma of colour pairs: what ``csw compile --preset`` puts in the cache."""
+    from .disparity_range import coarse_configs
+
     wanted = []
     for preset in presets or params.PRESETS:
         aggregated = params.PRESETS[preset].get("aggregate", "none") == "sgm"
@@ -131,6 +134,9 @@ def preset_entries(presets=None):
             config = params.resolve(preset=preset, csw=csw)
             for dtype in (np.uint8, np.uint16):
                 wanted += config_entries(config, np.dtype(dtype))
+    for config in coarse_configs():
+        for dtype in (np.uint8, np.uint16):
+            wanted += config_entries(config, np.dtype(dtype))
     return list(dict.fromkeys((k, tuple(v)) for k, v in wanted + colour_entries()))
 
 

@@ -61,7 +61,8 @@ def check_name(name, where):
     elif len(name.encode(errors="replace")) > MAX_NAME_BYTES:
         problem = f"is longer than {MAX_NAME_BYTES} bytes"
     if problem:
-        raise ValueError(f"{where}: the name {name!r} {problem}; a pair's name must be a "
+        shown = repr(name) if len(name) <= 60 else repr(name[:60]) + "..."  # one line
+        raise ValueError(f"{where}: the name {shown} {problem}; a pair's name must be a "
                          "plain file name (letters, digits, '-', '_', '.')")
 
 
@@ -371,8 +372,10 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
         remove_temporaries(path for i in todo for path in outputs[i].values())
         return write_summary(summary, log, config.as_dict())
     except KeyboardInterrupt:
-        # What finished is complete on disk: say so, marked as interrupted, and stop.
-        write_summary(summary, log, config.as_dict(), interrupted=True)
+        # What finished is complete on disk: say so, marked as interrupted, and stop (a
+        # second Ctrl-C waits until the summary is written).
+        with signals_held():
+            write_summary(summary, log, config.as_dict(), interrupted=True)
         raise
     finally:
         bar.close()
@@ -394,6 +397,22 @@ def _side_by_side(config, job):
     if not config.range_known:
         config = config.replace(dmin=0, dmax=max(1, width // 4))
     return stream_plan(config, (height, width))
+
+
+def first_size(jobs):
+    """(width, height) of the first pair whose left image's header can be read, or None:
+    the size a batch's rig is for.  A pair that can't be read (a pipe, a damaged file)
+    is passed over here and fails alone when its turn comes."""
+    from ..io.images import image_header
+
+    for job in jobs:
+        if job.problem is None:
+            try:
+                height, width = image_header(job.left)[2]
+                return width, height
+            except ValueError:
+                continue
+    return None
 
 
 NOTED_KEPT = 20  # notes on pairs (a range cut short...) a batch's report repeats
@@ -486,3 +505,40 @@ def write_summary(path, log, options, interrupted=False, extra=None):
     atomic_write(path, write)
     return dict(head, failed=list(log.failed), noted=list(log.noted), notes=log.notes,
                 pairs=SummaryPairs(path, log.done))
+
+
+class signals_held:
+    """Within the ``with``, Ctrl-C, SIGTERM and SIGHUP wait: one that comes is acted on
+    (by the handler that was in place) when the block ends, so that a frame's outputs
+    and its summary entry are written together or not at all.  Outside the main thread,
+    where no handler can be set, it does nothing."""
+
+    NAMES = ("SIGINT", "SIGTERM", "SIGHUP")
+
+    def __enter__(self):
+        import signal
+        import threading
+
+        self.saved, self.caught = {}, []
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        for name in self.NAMES:
+            number = getattr(signal, name, None)
+            if number is not None:
+                self.saved[number] = signal.signal(
+                    number, lambda signum, frame: self.caught.append((signum, frame)))
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        for number, handler in self.saved.items():
+            signal.signal(number, handler)
+        if self.caught and exc[0] is None:
+            signum, frame = self.caught[0]
+            handler = self.saved.get(signum)
+            if callable(handler):
+                handler(signum, frame)  # raises KeyboardInterrupt, or csw's Stopped
+            elif handler == signal.SIG_DFL:
+                signal.raise_signal(signum)
+        return False

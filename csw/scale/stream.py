@@ -8,6 +8,7 @@ the summary and the others go on, and a Ctrl-C keeps what is written, the previe
 closed as it stands and the summary marked interrupted.
 """
 
+import errno
 import os
 import time
 from array import array
@@ -22,8 +23,9 @@ from ..io import safety
 from ..io.formats import check_range, suffixes, write_disparity
 from ..io.pictures import INVALID, TURBO
 from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoReader, VideoWriter
+from ..matching.disparity_range import check_bounds
 from ..matching.matcher import Matcher
-from .batch import PairLog, failure_message, write_summary
+from .batch import PairLog, failure_message, signals_held, write_summary
 from .executor import progress_bar
 
 FRAME_NAME = "{index:06d}"  # a frame's outputs: 000000.pfm, 000001.pfm ...
@@ -65,7 +67,8 @@ def video_frames(left, right=None, sbs=False, colour=False):
     if sbs and width % 2:
         raise VideoError(f"{left}: a side-by-side frame must have an even width (two "
                          f"halves), got {width}")
-    info = {"rate": readers[0].rate, "frames": readers[0].frames, "notes": []}
+    info = {"rate": readers[0].rate, "frames": readers[0].frames, "notes": [],
+            "size": (width // 2 if sbs else width, height)}
     return _frames(readers, sbs, info["notes"]), info
 
 
@@ -108,6 +111,10 @@ def _frames(readers, sbs, notes):
 
 def _size(shape):
     return f"{shape[1]}x{shape[0]}"
+
+
+# A write that fails with one of these fails for every frame after it: the run stops.
+DISK_FULL = {errno.ENOSPC, errno.EDQUOT, errno.EROFS}
 
 
 # Turbo as packed RGBA (little-endian: R in the first byte), with one more entry, black,
@@ -240,22 +247,33 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
             Path(preview_video).resolve() == Path(summary).resolve():
         raise OptionError("preview_video", "the preview video and the summary are one file")
     frames, info = video_frames(left, right, sbs, colour=preview_sbs)
+    check_bounds(config, info["size"][0])  # from the header: before a frame is decoded
     if out_dir is not None:
         try:
             out_dir.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise OptionError("output_dir", f"can't create the folder {out_dir} "
                                             f"({exc.strerror or exc})") from None
+    for option, folder in (("output_dir", out_dir), ("summary", summary and summary.parent),
+                           ("preview_video", preview_video and Path(preview_video).parent)):
+        if folder is not None and not os.access(folder or ".", os.W_OK):  # before decoding
+            raise OptionError(option, f"the folder {folder} is not writable")
     matcher = Matcher(config=config, keep_range=keep_range)
-    run = _Run(out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
-               info["rate"] or 30.0, progress, info["frames"] or None,
-               each_range=not (keep_range or config.range_known))
+    try:
+        run = _Run(out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
+                   info["rate"] or 30.0, progress, info["frames"] or None,
+                   each_range=not (keep_range or config.range_known))
+    except OSError as exc:  # its log beside the summary: the folder can't be written
+        folder = summary.parent if summary is not None else Path(".")
+        raise OptionError("output_dir", f"can't write in {folder} "
+                                        f"({exc.strerror or exc})") from None
     try:
         run.go(matcher, frames, in_flight)
     except VideoError as exc:  # the stream can't go on (a size changed, a damaged file):
         run.stopped = str(exc)  # what is done is kept, and the summary says why it ended
     except KeyboardInterrupt:
-        run.finish(config, info["notes"], interrupted=True)
+        with signals_held():  # a second Ctrl-C waits until the summary is written
+            run.finish(config, info["notes"], interrupted=True)
         raise
     except BaseException:
         run.abandon()
@@ -285,6 +303,7 @@ class _Run:
         self.bar = progress_bar(total, "csw match", "frame", progress is True)
         self.total = total
         self.stopped = None  # why the stream ended before its end, if it did
+        self.halt = None  # a write that stops the run (a full disk), once the frame is logged
 
     def map_path(self, index):
         return self.out_dir / (FRAME_NAME.format(index=index) + self.suffix)
@@ -336,14 +355,25 @@ class _Run:
                     write_disparity(path, result.disparity)
                 except ValueError as exc:  # a frame's own range more than the format holds
                     status, error = "failed", str(exc)
-        if self.preview_path is not None:
-            self.write_preview(frame, result.disparity)
+                except OSError as exc:  # the frame fails; a full or read-only disk would
+                    status = "failed"   # fail every next one too: the run stops after it
+                    error = f"can't write {path}: {exc.strerror or exc}"
+                    if exc.errno in DISK_FULL:
+                        self.halt = f"frame {frame.index}: {error}"
+        if self.preview_path is not None and self.halt is None:
+            try:
+                self.write_preview(frame, result.disparity)
+            except (OSError, VideoError) as exc:
+                self.halt = f"frame {frame.index}: can't write the preview video " \
+                            f"{self.preview_path} ({getattr(exc, 'strerror', None) or exc})"
         fields = {"error": error} if error is not None else {
             "seconds": result.seconds, "invalid": 100.0 * result.invalid_share,
             "notes": list(result.notes)}
         if self.each_range:
             fields["range"] = [s["dmin"], s["dmax"]]
         self.add(frame.index, status, **fields)
+        if self.halt is not None:  # match_video keeps what is done and writes the summary
+            raise VideoError(self.halt)
 
     def write_preview(self, frame, disparity):
         if disparity is None:  # a lost frame: black, once the video's size is known
@@ -390,7 +420,12 @@ class _Run:
         self.seconds = time.perf_counter() - self.start
         self.bar.close()
         if self.preview is not None:
-            self.preview.close()  # what was matched, a whole video, interrupted or not
+            try:
+                self.preview.close()  # what was matched, a whole video, interrupted or not
+            except (OSError, VideoError) as exc:  # a full disk: the summary still says
+                reason = f"the preview video {self.preview_path} could not be written " \
+                         f"({getattr(exc, 'strerror', None) or exc})"
+                self.stopped = f"{self.stopped}; {reason}" if self.stopped else reason
         latency = np.frombuffer(self.latency, np.float64) * 1e3
         extra = {
             "frames": self.log.done,
@@ -422,40 +457,3 @@ class _Run:
         if self.preview is not None:
             self.preview.discard()
         self.log.close()
-
-
-class signals_held:
-    """Within the ``with``, Ctrl-C, SIGTERM and SIGHUP wait: one that comes is acted on
-    (by the handler that was in place) when the block ends, so that a frame's outputs
-    and its summary entry are written together or not at all.  Outside the main thread,
-    where no handler can be set, it does nothing."""
-
-    NAMES = ("SIGINT", "SIGTERM", "SIGHUP")
-
-    def __enter__(self):
-        import signal
-        import threading
-
-        self.saved, self.caught = {}, []
-        if threading.current_thread() is not threading.main_thread():
-            return self
-        for name in self.NAMES:
-            number = getattr(signal, name, None)
-            if number is not None:
-                self.saved[number] = signal.signal(
-                    number, lambda signum, frame: self.caught.append((signum, frame)))
-        return self
-
-    def __exit__(self, *exc):
-        import signal
-
-        for number, handler in self.saved.items():
-            signal.signal(number, handler)
-        if self.caught and exc[0] is None:
-            signum, frame = self.caught[0]
-            handler = self.saved.get(signum)
-            if callable(handler):
-                handler(signum, frame)  # raises KeyboardInterrupt, or csw's Stopped
-            elif handler == signal.SIG_DFL:
-                signal.raise_signal(signum)
-        return False

@@ -79,7 +79,6 @@ MATCH_HELP = opt.sectioned(
     ("Pipeline stages (on top of the preset)",
      ["prefilter", "prefilter_cap", "texture_threshold", "lr_check", "uniqueness_ratio",
       "subpixel", "speckle_size", "speckle_range", "median", "fill"]),
-    ("CSW: skip right pixels already claimed", ["csw", "csw_rule", "tau", "csw_margin"]),
     ("Depth and point clouds", ["depth", "depth_preview", "cloud", "max_depth", "calib",
                                 "focal", "baseline", "cx", "cy", "doffs", "units",
                                 "calib_units"]),
@@ -88,6 +87,8 @@ MATCH_HELP = opt.sectioned(
     ("Many pairs, big pairs and clusters", ["output_dir", "manifest", "suffix",
                                             "overwrite", "summary", "memory_limit",
                                             "workers", "scheduler"]),
+    # Off by default, and no faster on the default engine: after what most runs use.
+    ("CSW: skip right pixels already claimed", ["csw", "csw_rule", "tau", "csw_margin"]),
     ("Engine", ["engine", "threads"]),
 )
 
@@ -245,6 +246,10 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
                                    "pairs write into --output-dir")
         if bool(manifest) == (left is not None):
             raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")
+        if left is not None and not os.path.isdir(left):
+            raise click.UsageError(f"{left} is a file: --output-dir is for many pairs (LEFT "
+                                   "and RIGHT folders, or --manifest); for one pair give "
+                                   "-o FILE")
         if left is not None and (right is None or not os.path.isdir(right)):
             raise click.UsageError("with a LEFT folder, RIGHT must be a folder too")
         with opt.library_errors():
@@ -298,19 +303,21 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
 
 
 def batch_rig(rigs, left_dir, manifest):
-    """The rig of a batch of raw pairs, its image size from the first pair's left image
-    when the file doesn't give it."""
+    """The rig of a batch of raw pairs, checked against (and its image size, when the
+    file doesn't give it, taken from) the first pair's left image that can be read."""
     from csw import jobs_from_folders, jobs_from_manifest
     from csw.camera.rig import read_rig
-    from csw.io.images import image_header
+    from csw.scale.batch import first_size
 
     with opt.library_errors("--manifest" if manifest else "LEFT"):
         jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left_dir,
                                                                                left_dir)
-        first = next(job.left for job in jobs)
-        height, width = image_header(first)[2]
+        size = first_size(jobs)
     with opt.library_errors("--rig"):
-        return read_rig(*rigs, size=(width, height))
+        rig = read_rig(*rigs, size=size)
+        if size is not None:  # before the maps are built for the rig's size
+            rig.check_size(size, "the batch's first left image")
+        return rig
 
 
 def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, config,

@@ -68,21 +68,19 @@ def rectify_batch(left, right, manifest, rigs, output_dir, alpha, threads):
     from csw import jobs_from_folders, jobs_from_manifest
     from csw.camera.rectify import rectify_many
     from csw.camera.rig import read_rig
-    from csw.io.images import image_header
+    from csw.scale.batch import first_size
 
     if bool(manifest) == (left is not None):
         raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")
     with opt.library_errors("--manifest" if manifest else "LEFT"):
         jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left, right)
-    first = next((job for job in jobs if job.problem is None), None)
+    size = first_size(jobs)
     with opt.library_errors("--rig"):
-        size = None
-        if first is not None:
-            height, width = image_header(first.left)[2]
-            size = (width, height)
         rig = read_rig(*rigs, size=size)
+        if size is not None:  # before the maps are built for the rig's size
+            rig.check_size(size, "the batch's first left image")
     with opt.library_errors():
-        report = rectify_many(jobs, rig, output_dir, alpha, threads)
+        report = rectify_many(jobs, rig, output_dir, alpha, threads, progress=True)
     click.echo(f"{report['ok']} pair(s) rectified into {output_dir}/left and "
                f"{output_dir}/right (calib.txt in {output_dir}/left), "
                f"{len(report['failed'])} failed", err=True)

@@ -21,7 +21,10 @@ def test_every_match_option_has_its_section_and_the_sections_read_in_order():
     options = text[text.index("\nOutput:\n"):]
     assert options.index("  --dmax") < options.index("  --preset") \
         < options.index("  --lr-check") < options.index("  --depth ") \
-        < options.index("  --workers") < options.index("  --engine")
+        < options.index("  --workers") < options.index("  --csw ") \
+        < options.index("  --engine")
+    # CSW, off by default, comes after depth and the rig (issue 39)
+    assert options.index("  --rig") < options.index("  --csw ")
 
 
 def test_csw_help_puts_the_everyday_commands_first():

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from child import interruptible
 from click.testing import CliRunner
 from hostile_files import png, tiff
 from layout_fixtures import middlebury2014
@@ -251,6 +252,65 @@ def test_temporaries_of_a_killed_process_are_swept_by_the_next_run(pair_files, t
 CSW = [sys.executable, "-c", "from csw_cli.main import main; main()"]
 
 
+PROBE = ("import signal; from csw_cli.main import stop_on_signals; stop_on_signals(); "
+         "print(*(signal.getsignal(getattr(signal, n)) == signal.SIG_IGN "
+         "for n in ('SIGINT', 'SIGTERM', 'SIGHUP')))")
+
+
+def test_a_signal_ignored_at_start_stays_ignored_and_signal_tests_restore_them():
+    """`nohup csw ...` keeps SIGHUP ignored, a background job SIGINT; and the tests that
+    interrupt a child give it the default handlers back, so that they pass with the suite
+    started in the background (`nohup make test`)."""
+    def ignore_all():
+        for name in ("SIGINT", "SIGTERM", "SIGHUP"):
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
+
+    probe = [sys.executable, "-c", PROBE]
+    ignored = subprocess.run(probe, preexec_fn=ignore_all, capture_output=True, text=True)
+    assert ignored.stdout.split() == ["True", "True", "True"], ignored.stderr
+    saved = {n: signal.getsignal(n) for n in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    try:  # this process as a suite started with `nohup make test &` is
+        ignore_all()
+        child = interruptible(probe, stdout=subprocess.PIPE, text=True)
+        out, _ = child.communicate(timeout=60)
+    finally:
+        for number, handler in saved.items():
+            signal.signal(number, handler)
+    assert out.split() == ["False", "False", "False"]
+
+
+CLEAN_UP = """
+import os, signal, sys
+from csw_cli import main
+main.stop_on_signals()
+try:
+    os.kill(os.getpid(), signal.SIGINT)  # the first Ctrl-C: the run stops ...
+    for _ in range(10**7):
+        pass
+except KeyboardInterrupt as exc:  # ... and cleans up, while two more signals come
+    os.kill(os.getpid(), signal.SIGINT)
+    os.kill(os.getpid(), signal.SIGTERM)
+    sum(range(10**5))  # a signal's handler runs between two bytecodes: here, if any
+    open(sys.argv[1], "w").write("the summary")
+    main._interrupted(getattr(exc, "signum", signal.SIGINT))
+"""
+
+
+def test_a_second_signal_during_clean_up_changes_nothing(tmp_path):
+    """Ctrl-C, then Ctrl-C and SIGTERM while the run cleans up: the clean-up finishes
+    (the summary is written), the exit is the first signal's (130), no traceback.  The
+    signals are sent by the process to itself, so the test holds however fast the
+    machine is."""
+    from child import default_signals
+
+    out = subprocess.run([sys.executable, "-c", CLEAN_UP, str(tmp_path / "summary.json")],
+                         preexec_fn=default_signals, capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 130, out.stderr
+    assert out.stderr.strip().splitlines() == ["csw: interrupted; no partial file was left"]
+    assert (tmp_path / "summary.json").read_text() == "the summary"
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
 def test_sigterm_and_sighup_behave_like_ctrl_c(tmp_path, signum):
@@ -264,8 +324,8 @@ def test_sigterm_and_sighup_behave_like_ctrl_c(tmp_path, signum):
     subprocess.run([*command[:4], "s.png", "s.png", "-o", "s.pfm", *command[6:]],
                    cwd=tmp_path, check=True, capture_output=True)
     before = sorted(p.name for p in tmp_path.iterdir())
-    process = subprocess.Popen([*command, "-o", "d.pfm", "--preview", "p.png"],
-                               cwd=tmp_path, stderr=subprocess.PIPE, text=True)
+    process = interruptible([*command, "-o", "d.pfm", "--preview", "p.png"],
+                            cwd=tmp_path, stderr=subprocess.PIPE, text=True)
     time.sleep(4)
     assert process.poll() is None
     process.send_signal(signum)

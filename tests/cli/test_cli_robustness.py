@@ -12,6 +12,7 @@ import zlib
 
 import numpy as np
 import pytest
+from child import interruptible
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -65,8 +66,8 @@ def test_ctrl_c_stops_a_long_match_at_once(tmp_path, output):
     for name in ("s.png", "s.pfm"):
         (tmp_path / name).unlink()
     before = files_in(tmp_path)
-    process = subprocess.Popen([*command, "-o", *output], cwd=tmp_path, stdout=subprocess.PIPE,
-                               stderr=subprocess.PIPE, text=True)
+    process = interruptible([*command, "-o", *output], cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
     time.sleep(4)  # past start-up and the warm-up (from the cache), inside the kernel
     assert process.poll() is None, process.communicate()
     sent = time.perf_counter()

@@ -9,9 +9,11 @@ import time
 
 import numpy as np
 import pytest
+from child import interruptible
 from click.testing import CliRunner
 from video_fixtures import damage_jpeg_frame, write_frames
 
+import csw
 from csw.data.synth import render
 from csw_cli.main import cli
 
@@ -119,8 +121,8 @@ def test_ctrl_c_keeps_the_frames_written_and_marks_the_summary(tmp_path):
     sbs_mjpeg(tmp_path / "s.avi", 2, width=320, height=240, dmax=31)
     subprocess.run([*command[:4], "s.avi", *command[5:], "-O", "warm"], cwd=tmp_path,
                    check=True, capture_output=True)
-    process = subprocess.Popen([*command, "-O", "maps", "--preview-video", "view.mp4"],
-                               cwd=tmp_path, stderr=subprocess.PIPE, text=True)
+    process = interruptible([*command, "-O", "maps", "--preview-video", "view.mp4"],
+                            cwd=tmp_path, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 60
     while time.time() < deadline and len(os.listdir(tmp_path / "maps")
                                          if (tmp_path / "maps").exists() else []) < 5:
@@ -194,3 +196,143 @@ def test_a_frame_whose_own_range_its_format_cant_hold_fails_alone(tmp_path):
     assert "Traceback" not in result.output
     assert sorted(os.listdir(tmp_path / "maps")) == ["000000.png", "000002.png",
                                                      "summary.json"]
+
+
+@pytest.mark.parametrize("given, words", [
+    (["--dmin", 20, "--dmax", 10], ["--dmin", "must not exceed dmax (10)"]),
+    (["--dmax", 1000000], ["--dmax", "less than the image width (96)"]),
+    (["--dmin", -500], ["--dmin", "greater than minus the image width (96)"]),
+])
+def test_a_range_no_frame_can_take_is_refused_before_decoding(tmp_path, given, words):
+    """As a single pair's: exit 2 at once, one line, nothing written (the frames' width
+    comes from the video's header), not a failure a frame."""
+    video = sbs_mjpeg(tmp_path / "v.avi", 4)
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", *given)
+    assert one_line_error(result), result.output
+    assert all(word in result.output for word in words), result.output
+    assert not (tmp_path / "maps").exists()
+
+
+def test_a_full_disk_stops_the_run_cleanly_with_its_summary_and_preview(tmp_path,
+                                                                         monkeypatch):
+    """The batch rule: the frame whose map can't be written is reported, and since a full
+    disk fails every frame after it, the run stops there, keeping the maps and the
+    preview of the frames done and writing its summary (exit 1)."""
+    import errno
+
+    from csw.scale import stream
+
+    real = stream.write_disparity
+
+    def full_from_frame_3(path, values):
+        if path.name >= "000003":
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(path, values)
+
+    monkeypatch.setattr(stream, "write_disparity", full_from_frame_3)
+    video = sbs_mjpeg(tmp_path / "v.avi", 8)
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--dmax", 15,
+                    "--preview-video", tmp_path / "view.mp4")
+    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+    assert "stopped early: frame 3: can't write" in result.output
+    assert "No space left on device" in result.output
+    summary = json.loads((tmp_path / "maps" / "summary.json").read_text())
+    assert summary["counts"] == {"ok": 3, "skipped": 0, "failed": 1}
+    assert summary["stopped"].startswith("frame 3: can't write")
+    assert sorted(os.listdir(tmp_path / "maps")) == \
+        [f"{i:06d}.pfm" for i in range(3)] + ["summary.json"]
+    assert sum(1 for _ in av.open(str(tmp_path / "view.mp4")).decode(video=0)) == 3
+
+
+def test_an_unwritable_output_folder_is_refused_before_decoding(tmp_path, monkeypatch):
+    from csw.scale import stream
+
+    (tmp_path / "maps").mkdir()
+    real = os.access
+    monkeypatch.setattr(stream.os, "access", lambda path, mode, **kw: False if
+                        mode == os.W_OK and os.path.realpath(path) == str(tmp_path / "maps")
+                        else real(path, mode, **kw))  # as a read-only disk, even for root
+    decoded = []
+    monkeypatch.setattr(stream.VideoReader, "__iter__", lambda self: decoded.append(1))
+    result = invoke("match", sbs_mjpeg(tmp_path / "v.avi", 3), "--sbs", "-O",
+                    tmp_path / "maps")
+    assert one_line_error(result), result.output
+    assert f"the folder {tmp_path / 'maps'} is not writable" in result.output
+    assert decoded == [] and os.listdir(tmp_path / "maps") == []
+
+
+def test_a_second_ctrl_c_waits_for_the_summary(tmp_path, monkeypatch):
+    """A Ctrl-C stops the run; a second one, while its summary is being written, waits
+    until it is (in a notebook too, where csw's CLI handlers are not in place)."""
+    from csw.scale import stream
+
+    real = stream.write_summary
+
+    def ctrl_c_again(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)  # held until the summary is written
+        return real(*args, **kwargs)
+
+    def ctrl_c_at_frame_3(done, total):
+        if done == 3:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(stream, "write_summary", ctrl_c_again)
+    with pytest.raises(KeyboardInterrupt):
+        stream.match_video(sbs_mjpeg(tmp_path / "v.avi", 8), sbs=True,
+                           out_dir=tmp_path / "maps", dmax=15, progress=ctrl_c_at_frame_3)
+    summary = json.loads((tmp_path / "maps" / "summary.json").read_text())
+    assert summary["interrupted"] is True and summary["counts"]["ok"] >= 3
+
+
+def test_overwrite_redoes_the_maps_of_a_video(tmp_path):
+    video = sbs_mjpeg(tmp_path / "v.avi", 3)
+    assert invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--dmax", 15)\
+        .exit_code == 0
+    stale = tmp_path / "maps" / "000001.pfm"
+    csw.write_disparity(stale, np.zeros((4, 4), np.float32))
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--dmax", 15)
+    assert "0 matched, 3 skipped" in result.output
+    assert csw.read_disparity(stale).shape == (4, 4)  # kept
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--dmax", 15,
+                    "--overwrite")
+    assert result.exit_code == 0 and "3 matched, 0 skipped" in result.output, result.output
+    assert csw.read_disparity(stale).shape == (64, 96)  # redone: the frame's size
+
+
+def test_range_each_frame_keeps_the_widest_range_when_a_deep_scene_comes_first(tmp_path):
+    shallow, deep = (np.concatenate(render(192, 96, dmax, 5)[:2], axis=1) for dmax in (12, 48))
+    video = write_frames(tmp_path / "v.avi", [deep, deep, shallow, shallow])
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "each", "--range-each-frame")
+    assert result.exit_code == 0, result.output
+    summary = json.loads((tmp_path / "each" / "summary.json").read_text())
+    ranges = [entry["range"] for entry in summary["pairs"]]
+    assert ranges[3][1] < ranges[0][1]  # the last frame's own range is the narrower
+    assert summary["range"] == [min(r[0] for r in ranges), max(r[1] for r in ranges)]
+
+
+def test_a_ctrl_c_during_a_frame_s_save_keeps_that_frame_whole(tmp_path, monkeypatch):
+    """The frame being saved when Ctrl-C comes is written whole (map and summary entry),
+    then the run stops."""
+    from csw.scale import stream
+
+    real = stream.write_disparity
+
+    def ctrl_c_while_saving_frame_2(path, values):
+        if path.name == "000002.pfm":
+            os.kill(os.getpid(), signal.SIGINT)
+            sum(range(10**5))  # were the save not held, the handler would run here
+        return real(path, values)
+
+    monkeypatch.setattr(stream, "write_disparity", ctrl_c_while_saving_frame_2)
+    saved = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            stream.match_video(sbs_mjpeg(tmp_path / "v.avi", 8), sbs=True,
+                               out_dir=tmp_path / "maps", dmax=15, progress=False,
+                               in_flight=1)
+    finally:
+        signal.signal(signal.SIGINT, saved)
+    summary = json.loads((tmp_path / "maps" / "summary.json").read_text())
+    assert summary["interrupted"] is True and summary["counts"]["ok"] == 3
+    assert [entry["frame"] for entry in summary["pairs"]] == [0, 1, 2]
+    assert (tmp_path / "maps" / "000002.pfm").exists()

@@ -73,3 +73,19 @@ def test_an_option_that_is_a_kernel_argument_chooses_no_kernel(name):
             continue
         seen.add(tuple(config_entries(config, np.dtype(np.uint8))))
     assert len(seen) == 1
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_a_default_match_after_compile_preset_accurate_compiles_nothing(dtype):
+    """The README's CI recipe: ``csw compile --preset accurate``, then a default ``csw
+    match`` on a new photo, whose range is found by a coarse match of the shrunk pair
+    (dmin 0 given, or found) before the match itself."""
+    from csw.matching.disparity_range import coarse_configs
+    from csw.matching.setup import preset_entries
+
+    compiled = set(preset_entries(["accurate"]))
+    default = params.resolve()
+    runs = [*coarse_configs(), default.replace(dmax=40)]
+    for config in runs:
+        wanted = {(k, tuple(v)) for k, v in config_entries(config, np.dtype(dtype))}
+        assert wanted <= compiled, sorted(wanted - compiled)

@@ -152,3 +152,17 @@ def test_options_that_need_csw_are_refused_without_it(name, value):
     with pytest.raises(params.OptionError, match="only with CSW on"):
         params.resolve(**{name: value})
     assert getattr(params.resolve(csw=True, **{name: value}), name) is not None
+
+
+def test_bad_options_fail_at_construction_not_at_the_first_pair():
+    """A Matcher checks its options when made (its docstring says so): a range whose
+    dmin exceeds its dmax, or more threads than the option table allows, fail there,
+    and csw.match with them fails the same way, at once."""
+    with pytest.raises(params.OptionError, match=r"dmin \(20\) must not exceed dmax \(10\)"):
+        csw.Matcher(dmin=20, dmax=10, pixels=None)
+    with pytest.raises(params.OptionError, match=f"threads must be from 1 to "
+                                                 f"{params.MAX_THREADS}"):
+        csw.Matcher(threads=10**6, pixels=None)
+    with pytest.raises(params.OptionError, match="threads"):
+        csw.match(LEFT, RIGHT, dmax=8, threads=10**6)
+    assert csw.Matcher(dmin=10, dmax=10, pixels=None).config.dmax == 10  # one disparity

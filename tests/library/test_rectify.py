@@ -8,7 +8,15 @@ import re
 import cv2
 import numpy as np
 import pytest
-from rig_fixtures import SIZE, random_rig, raw_from_rectified, ros_camera_info, write_opencv
+from rig_fixtures import (
+    SIZE,
+    kalibr_text,
+    kitti_text,
+    random_rig,
+    raw_from_rectified,
+    ros_camera_info,
+    write_opencv,
+)
 
 import csw
 from csw.camera.rectify import Rectifier, rectify_files, rectify_maps, stereo_rectify
@@ -151,32 +159,15 @@ def test_ros_camera_info_gives_back_r_and_t(tmp_path):
 
 def test_kitti_and_kalibr(tmp_path):
     rig = random_rig(np.random.default_rng(10))
-
-    def row(values):
-        return " ".join(f"{v:.17g}" for v in np.ravel(values))
-
     # KITTI: camera 0 is the left one here (R_02 = I, T_02 = 0).
-    (tmp_path / "calib_cam_to_cam.txt").write_text(
-        f"S_02: {SIZE[0]} {SIZE[1]}\nK_02: {row(rig.k1)}\nD_02: {row(rig.d1)}\n"
-        f"R_02: {row(np.eye(3))}\nT_02: 0 0 0\nS_03: {SIZE[0]} {SIZE[1]}\n"
-        f"K_03: {row(rig.k2)}\nD_03: {row(rig.d2)}\nR_03: {row(rig.r)}\n"
-        f"T_03: {row(rig.t)}\nP_rect_02: {row(np.eye(3, 4))}\nP_rect_03: {row(np.eye(3, 4))}\n")
+    (tmp_path / "calib_cam_to_cam.txt").write_text(kitti_text(rig))
     kitti = read_rig(tmp_path / "calib_cam_to_cam.txt")
     np.testing.assert_allclose(kitti.r, rig.r, atol=1e-12)
     np.testing.assert_allclose(kitti.t, rig.t, atol=1e-12)
-    transform = np.eye(4)
-    transform[:3, :3], transform[:3, 3] = rig.r, rig.t
-    (tmp_path / "camchain.yaml").write_text(
-        "cam0:\n  camera_model: pinhole\n"
-        f"  intrinsics: [{rig.k1[0, 0]}, {rig.k1[1, 1]}, {rig.k1[0, 2]}, {rig.k1[1, 2]}]\n"
-        f"  distortion_model: radtan\n  distortion_coeffs: [{', '.join(map(str, rig.d1[:4]))}]\n"
-        f"  resolution: [{SIZE[0]}, {SIZE[1]}]\ncam1:\n"
-        "  T_cn_cnm1:\n" + "".join(f"  - [{row(r).replace(' ', ', ')}]\n" for r in transform)
-        + f"  intrinsics: [{rig.k2[0, 0]}, {rig.k2[1, 1]}, {rig.k2[0, 2]}, {rig.k2[1, 2]}]\n"
-        f"  distortion_model: radtan\n  distortion_coeffs: [{', '.join(map(str, rig.d2[:4]))}]\n"
-        f"  resolution: [{SIZE[0]}, {SIZE[1]}]\n")
+    (tmp_path / "camchain.yaml").write_text(kalibr_text(rig))
     kalibr = read_rig(tmp_path / "camchain.yaml")
     np.testing.assert_allclose(kalibr.r, rig.r, atol=1e-12)
+    np.testing.assert_allclose(kalibr.t, rig.t, atol=1e-12)  # not negated
     assert kalibr.units == "m" and kalibr.size == SIZE
 
 
@@ -328,3 +319,89 @@ def test_rectified_images_equal_cv2_remap_with_opencv_s_fixed_maps(model):
     ours = rect.rectify_one(image, 0)
     same = (ours == theirs)[rect.valid[0]]
     assert same.mean() >= 0.9999, same.mean()
+
+
+# ------------------------------------------- details a one-line change would break (issue 39)
+
+
+def test_a_non_zero_ninth_distortion_coefficient_is_refused():
+    from csw.camera.rectify import coefficients
+
+    tilted = np.zeros(12)
+    tilted[8] = 0.01  # s1, the thin-prism model's first: csw's model stops at k6
+    with pytest.raises(ValueError, match="coefficients"):
+        coefficients(tilted)
+    assert coefficients(np.r_[np.arange(1, 9) * 0.01, np.zeros(4)])[7] == pytest.approx(0.08)
+
+
+def test_invalidate_drops_exactly_the_pixels_whose_match_has_no_source():
+    """The left pixel's own validity, and its match x - d in the right image's: checked
+    against a brute-force loop, on a rig whose two cameras' valid areas differ."""
+    rig = random_rig(np.random.default_rng(14))
+    rect = Rectifier(rig, alpha=1.0)
+    valid_left, valid_right = rect.valid
+    assert not valid_left.all() and not (valid_left == valid_right).all()
+    rng = np.random.default_rng(1)
+    disparity = rng.uniform(0, 40, SIZE[::-1]).astype(np.float32)
+    disparity[rng.random(disparity.shape) < 0.1] = np.nan
+    expected = disparity.copy()
+    for y, x in zip(*np.nonzero(np.isfinite(disparity)), strict=True):
+        column = int(np.round(x - disparity[y, x]))
+        if not valid_left[y, x] or not (0 <= column < SIZE[0] and valid_right[y, column]):
+            expected[y, x] = np.nan
+    rect.invalidate(disparity)
+    np.testing.assert_array_equal(np.isnan(disparity), np.isnan(expected))
+
+
+@pytest.mark.parametrize("raw", [(10, 1), (1, 10)])
+def test_the_remap_refuses_a_raw_image_under_2x2(raw):
+    from csw.kernels.remap import fixed_maps
+
+    maps = np.zeros((4, 4), np.float32)
+    with pytest.raises(ValueError, match="at least 2x2"):
+        fixed_maps(maps, maps, raw)
+
+
+def test_a_point_on_the_last_column_or_row_blends_from_the_pixel_before_it():
+    """offset is kept one short of the last column and row: the point takes weight 32
+    on the next pixel, never a pixel past the row's end."""
+    from csw.kernels.remap import fixed_maps
+
+    height, width = 5, 7
+    map_x = np.array([[width - 1, 0.0]], np.float32)
+    map_y = np.array([[0.0, height - 1]], np.float32)
+    fixed = fixed_maps(map_x, map_y, (height, width))
+    assert fixed.offset[0, 0] == width - 2 and fixed.weights[0, 0] & 63 == 32
+    assert fixed.offset[0, 1] == (height - 2) * width and fixed.weights[0, 1] >> 6 == 32
+    image = np.arange(height * width, dtype=np.uint8).reshape(height, width)
+    out, valid = remap(image, fixed, None)
+    assert valid.all() and out.tolist() == [[width - 1, (height - 1) * width]]
+
+
+def test_a_vertical_rig_is_refused():
+    rig = random_rig(np.random.default_rng(12))
+    with pytest.raises(ValueError, match="vertical rig"):
+        Rig(rig.k1, rig.d1, rig.k2, rig.d2, rig.r, np.array([0.001, 0.12, 0.0]), SIZE)
+    forward = Rig(rig.k1, rig.d1, rig.k2, rig.d2, rig.r, np.array([-0.12, 0.01, 0.3]), SIZE)
+    assert forward.baseline > 0.3  # a large Tz is no vertical rig
+
+
+def test_kitti_with_camera_0_elsewhere_and_its_own_rectification(tmp_path):
+    """R_02, T_02 not the identity and zero: left to right is R3 R2^T and T3 - R T2; the
+    file's R_rect and P_rect are used as given, P_rect's offsets made relative."""
+    rig = random_rig(np.random.default_rng(10))
+    r02 = csw.camera.rectify.rodrigues(np.array([0.02, -0.05, 0.01]))
+    r1, r2, p1, p2, _ = opencv_rectify(rig, 0.0)
+    p2_kitti, p3_kitti = p1.copy(), p2.copy()
+    p2_kitti[:, 3] += [4.5, 0.1, 0.002]  # camera 2's own offset from camera 0
+    p3_kitti[:, 3] += [4.5, 0.1, 0.002]
+    (tmp_path / "calib_cam_to_cam.txt").write_text(
+        kitti_text(rig, r02, np.array([0.06, -0.01, 0.02]), (r1, r2, p2_kitti, p3_kitti)))
+    kitti = read_rig(tmp_path / "calib_cam_to_cam.txt")
+    np.testing.assert_allclose(kitti.r, rig.r, atol=1e-12)
+    np.testing.assert_allclose(kitti.t, rig.t, atol=1e-12)
+    given = kitti.rectification
+    np.testing.assert_allclose(given[0], r1, atol=1e-12)
+    np.testing.assert_allclose(given[1], r2, atol=1e-12)
+    np.testing.assert_allclose(given[2], np.c_[p1[:, :3], np.zeros(3)], atol=1e-9)
+    np.testing.assert_allclose(given[3], p2, atol=1e-9)

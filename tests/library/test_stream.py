@@ -112,3 +112,40 @@ def test_repeated_matches_reuse_the_set_up_and_stay_equal():
     assert second.compile_seconds == 0.0
     assert first.settings == second.settings
     assert first.settings is not second.settings  # each result owns its settings
+
+
+@pytest.mark.parametrize("in_flight", [2, 3])
+def test_no_more_frames_are_read_ahead_than_in_flight(in_flight):
+    """When result i is yielded, at most i + in_flight pairs have been read: a camera's
+    frames are not taken before a thread can match them."""
+    pulled = []
+
+    def pairs():
+        for pair in frames(8):
+            pulled.append(1)
+            yield pair
+
+    matcher = csw.Matcher(dmax=15)
+    for i, _ in enumerate(matcher.stream(pairs(), in_flight=in_flight)):
+        assert len(pulled) <= i + in_flight, (i, len(pulled))
+    assert len(pulled) == 8
+
+
+def test_a_signal_during_a_held_block_is_acted_on_after_it():
+    """csw.scale.batch.signals_held: a frame's outputs and its entry are written together;
+    the Ctrl-C that came meanwhile is acted on (by the handler in place) once they are."""
+    import os
+    import signal
+
+    from csw.scale.batch import signals_held
+
+    seen = []
+    saved = signal.signal(signal.SIGINT, lambda signum, frame: seen.append(signum))
+    try:
+        with signals_held():
+            os.kill(os.getpid(), signal.SIGINT)
+            sum(range(10**5))  # a handler runs between bytecodes: here, were it not held
+            assert seen == []
+        assert seen == [signal.SIGINT]
+    finally:
+        signal.signal(signal.SIGINT, saved)
