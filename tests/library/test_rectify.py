@@ -325,7 +325,7 @@ def test_rectified_images_equal_cv2_remap_with_opencv_s_fixed_maps(model):
 
 
 def test_a_non_zero_ninth_distortion_coefficient_is_refused():
-    from csw.camera.rectify import coefficients
+    from csw.camera.rectification import coefficients
 
     tilted = np.zeros(12)
     tilted[8] = 0.01  # s1, the thin-prism model's first: csw's model stops at k6
