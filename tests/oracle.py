@@ -59,6 +59,26 @@ def window_costs(left, right, y, x, ds, window, cost):
     return out
 
 
+def record(ds, costs, i, x, disp, mins, more, seen):
+    """Pixel x of map row i from its candidates ds and their costs: the smallest d among
+    the least costs into disp and mins, the second best (2 or more away), the costs at
+    d -/+ 1, and the right map (seen: right column -> (cost, d) of its best match so
+    far, the smallest d on ties).  Returns (d, its cost)."""
+    best = min(costs)
+    d_best = ds[costs.index(best)]  # first, i.e. smallest, d attaining the minimum
+    disp[i, x], mins[i, x] = d_best, best
+    by_d = dict(zip(ds, costs, strict=True))
+    others = [c for d, c in by_d.items() if abs(d - d_best) >= 2]
+    more["second_cost"][i, x] = min(others) if others else -1
+    more["prev_cost"][i, x] = by_d.get(d_best - 1, -1)
+    more["next_cost"][i, x] = by_d.get(d_best + 1, -1)
+    for d, c in by_d.items():
+        if x - d not in seen or c < seen[x - d][0]:
+            seen[x - d] = (c, d)
+            more["right_disparity"][i, x - d] = d
+    return d_best, best
+
+
 def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=None,
                  rule="literal", csw_margin=None, slack=None, census_window=5, extras=False,
                  census_pattern="dense"):
@@ -104,18 +124,7 @@ def oracle_match(left, right, window, dmin, dmax, cost, csw=False, tau=-1, rows=
                 continue
             costs = window_costs(left, right, y, x, ds, window, cost)
             evaluated += len(ds)
-            best = min(costs)
-            d_best = ds[costs.index(best)]  # first, i.e. smallest, d attaining the minimum
-            disp[i, x], mins[i, x] = d_best, best
-            by_d = dict(zip(ds, costs, strict=True))
-            others = [c for d, c in by_d.items() if abs(d - d_best) >= 2]
-            more["second_cost"][i, x] = min(others) if others else -1
-            more["prev_cost"][i, x] = by_d.get(d_best - 1, -1)
-            more["next_cost"][i, x] = by_d.get(d_best + 1, -1)
-            for d, c in by_d.items():
-                if x - d not in seen or c < seen[x - d][0]:
-                    seen[x - d] = (c, d)
-                    more["right_disparity"][i, x - d] = d
+            d_best, best = record(ds, costs, i, x, disp, mins, more, seen)
             if not csw or best > np.floor(tau):
                 continue
             if rule == "unique":
@@ -344,17 +353,5 @@ def sgm_match(left, right, window, dmin, dmax, cost, paths, p1, p2, census_windo
             ds = [d for d in range(dmin, dmax + 1) if 0 <= x - d <= width - 1]
             if not ds:
                 continue
-            costs = [int(total[y, x, d - dmin]) for d in ds]
-            best = min(costs)
-            d_best = ds[costs.index(best)]
-            disp[y, x], mins[y, x] = d_best, best
-            by_d = dict(zip(ds, costs, strict=True))
-            others = [c for d, c in by_d.items() if abs(d - d_best) >= 2]
-            more["second_cost"][y, x] = min(others) if others else -1
-            more["prev_cost"][y, x] = by_d.get(d_best - 1, -1)
-            more["next_cost"][y, x] = by_d.get(d_best + 1, -1)
-            for d, c in by_d.items():
-                if x - d not in seen or c < seen[x - d][0]:
-                    seen[x - d] = (c, d)
-                    more["right_disparity"][y, x - d] = d
+            record(ds, [int(total[y, x, d - dmin]) for d in ds], y, x, disp, mins, more, seen)
     return disp, mins, more
