@@ -25,6 +25,7 @@ Layers:
 """
 
 import functools
+import itertools
 import math
 
 import numpy as np
@@ -82,14 +83,21 @@ def default_penalties(cost, window, census_bits_=None, pixels=np.uint8):
     return 8 * area * scale, 32 * area * scale
 
 
+def sentinel(cmax, p2, banded=False):
+    """The path states' sentinel: above every path value (at most cmax + P2), and in a
+    banded match above every min_j L + P2 too, so that a d the pixel before did not
+    search counts as none (kernels/jit/sgm.py)."""
+    return cmax + p2 * (2 if banded else 1)
+
+
 @functools.cache
-def accumulator(cmax, p1, p2, paths):
+def accumulator(cmax, p1, p2, paths, banded=False):
     """The accumulator type (np.uint16 or np.uint32) in which every path value (at most
-    cmax + P2, its sentinel at most cmax + P2 + P1) and every sum over the paths fits
-    below the type's largest value, which marks none; ValueError if none does."""
+    cmax + P2), its sentinel plus P1 and every sum over the paths fits below the type's
+    largest value, which marks none; ValueError if none does."""
     for dtype in (np.uint16, np.uint32):
         top = int(np.iinfo(dtype).max)
-        if cmax + p2 + p1 < top and paths * (cmax + p2) < top:
+        if sentinel(cmax, p2, banded) + p1 < top and paths * (cmax + p2) < top:
             return np.dtype(dtype)
     raise ValueError(f"semi-global sums of costs up to {cmax} with P2 {p2} over {paths} "
                      "paths exceed 32 bits; use a smaller window, a Hamming cost or "
@@ -102,15 +110,15 @@ def cost_type(cmax, acc):
     return np.dtype(np.uint8) if cmax <= 255 else acc
 
 
-def variant(cost, pixels, cmax, acc, dmin=0):
+def variant(cost, pixels, cmax, acc, dmin=0, banded=False):
     return (COST_NAMES.get(cost, "shd"), dtype_name(pixels), dtype_name(cost_type(cmax, acc)),
-            dtype_name(acc), dmin < 0)
+            dtype_name(acc), dmin < 0, bool(banded))
 
 
 def entries(cost, pixels, window, dmin, paths, p1, p2, census_window=None,
-            census_pattern=None):
+            census_pattern=None, banded=False):
     """The (kernel, variant) entries a semi-global match loads: its census transform,
-    if any, and its worker."""
+    if any, and its worker (``banded``: a narrowed search's)."""
     from . import census
 
     compared, code, bits = pixels, cost, None
@@ -119,9 +127,9 @@ def entries(cost, pixels, window, dmin, paths, p1, p2, census_window=None,
         code, bits = "shd", census_bits(census_window, census_pattern)
     code_id = {"sad": SAD, "ssd": SSD, "shd": SHD}[code]
     cmax = per_pixel_max(code_id, compared, bits) * window * window
-    acc = accumulator(cmax, p1, p2, paths)
+    acc = accumulator(cmax, p1, p2, paths, banded)
     return census.entries(pixels, cost, census_window, census_pattern) + \
-        [("sgm", variant(code_id, compared, cmax, acc, dmin))]
+        [("sgm", variant(code_id, compared, cmax, acc, dmin, banded))]
 
 
 def variants(largest_window=31, largest_penalty=10**7):
@@ -136,21 +144,28 @@ def variants(largest_window=31, largest_penalty=10**7):
             for bits in ((None,) if cost != SHD else range(8, 65)):
                 cmax = per_pixel_max(cost, pixels, bits) * window * window
                 for p2 in (0, cmax, largest_penalty):
-                    for paths in PATHS:
+                    for paths, banded in itertools.product(PATHS, (False, True)):
                         try:
-                            acc = accumulator(cmax, 0, p2, paths)
+                            acc = accumulator(cmax, 0, p2, paths, banded)
                         except ValueError:
                             continue
                         for dmin in (0, -1):
-                            found.add(variant(cost, pixels, cmax, acc, dmin))
+                            found.add(variant(cost, pixels, cmax, acc, dmin, banded))
     return sorted(found)
 
 
-def memory(height, width, ndisp, window, paths, threads, band_bytes=None):
+def memory(height, width, ndisp, window, paths, threads, band_bytes=None, slots=None):
     """Bytes a match_sgm of a pair this size holds beyond its images and maps, at most
     (32-bit sums): the band's slabs, the paths' states and the down paths' states kept
     at each band's start, and each thread's cost scratch (column sums and Hamming
-    costs' ring)."""
+    costs' ring).  slots: a banded match's K (its slabs and states hold K, its states'
+    pads 2K + 4 more, and it has no column sums)."""
+    if slots is not None:
+        state = width * (3 * slots + 4) * 4
+        rows = band_rows(height, width, slots, 8, state / width / slots, band_bytes)
+        kept = (math.ceil(height / rows) - 1) * (3 if paths == 8 else 1) * state
+        return rows * width * slots * 8 + 4 * 3 * state + kept + threads * slots * 8 + \
+            height * width * 4
     state = width * (ndisp + 2) * 4
     down = 3 if paths == 8 else 1
     rows = band_rows(height, width, ndisp, 8, down * state / width / ndisp, band_bytes)
@@ -183,7 +198,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
               census_window=None, census_pattern=None, extras=False, right_map=False,
               lr_check=None, threads=None, into=None, band_bytes=None,
               workspace=None, engine="fast", csw=False, tau=-1, rule="literal",
-              csw_margin=None, rows=None):
+              csw_margin=None, rows=None, starts=None, slots=None):
     """Semi-global matching of a rectified pair (kernels/jit/sgm.py has the definition).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype.  window, dmin, dmax,
@@ -194,8 +209,11 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     small to cut many bands; None: BAND_BYTES); workspace is not used (the bands are
     the match's own).
     rows: as for match_fast, but every row is matched (the paths cross them all) and
-    the maps keep those asked for.  engine, tau, rule, csw_margin: the local engines'
-    (taken, unused); CSW is theirs only.
+    the maps keep those asked for.
+    starts, slots: a narrowed search: pixel p searches d = dmin + starts[p] + k for k <
+    slots; starts int (H, W), 0 <= starts <= dmax - dmin + 1 - slots (None: every d).
+    engine, tau, rule, csw_margin: the local engines' (taken, unused); CSW is theirs
+    only.
     Returns a MatchResult whose min_cost, second, prev and next costs are the
     aggregated sums S.
     """
@@ -220,6 +238,22 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     if ndisp > np.iinfo(np.int16).max:
         raise ValueError("semi-global matching searches at most 32767 disparities at once; "
                          "narrow dmin..dmax")
+    banded = starts is not None
+    if banded:
+        if isinstance(slots, bool) or not isinstance(slots, (int, np.integer)) or \
+                not 1 <= slots <= ndisp:
+            raise ValueError(f"slots must be a whole number in 1..{ndisp}, got {slots!r}")
+        starts = np.asarray(starts)
+        if starts.shape != (height, width) or starts.dtype.kind not in "iu":
+            raise ValueError(f"starts must be whole numbers shaped {(height, width)}, got "
+                             f"{starts.dtype} {starts.shape}")
+        if starts.size and (starts.min() < 0 or starts.max() > ndisp - slots):
+            raise ValueError(f"starts must lie in 0..{ndisp - slots} (dmax - dmin + 1 - "
+                             "slots)")
+        starts = np.ascontiguousarray(starts, np.int32)
+        ndisp = int(slots)
+    else:
+        starts = np.zeros((1, 1), np.int32)
     h = s.window // 2
     shift = max(0, -s.dmin)
     shape = (height + 2 * h, width + 2 * h)
@@ -236,8 +270,8 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     if shift:
         right_rev = np.ascontiguousarray(np.pad(right_rev, ((0, 0), (shift, 0)), mode="edge"))
     cmax = per_pixel_max(s.cost, left_p.dtype, bits) * s.window * s.window
-    acc = accumulator(cmax, p1, p2, paths)
-    run = native.entry("sgm", variant(s.cost, left_p.dtype, cmax, acc, s.dmin))
+    acc = accumulator(cmax, p1, p2, paths, banded)
+    run = native.entry("sgm", variant(s.cost, left_p.dtype, cmax, acc, s.dmin, banded))
     n_threads = runtime.thread_count(threads)
 
     disp = output(into, "disparity", (height, width), np.int32)
@@ -247,18 +281,19 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     lr_valid = output(into, "lr_valid", (height, width), np.uint8) if checked else \
         np.empty((1, width), np.uint8)
     down = 3 if paths == 8 else 1
+    pad = pad_of(ndisp, banded)
     rows_per_band = band_rows(height, width, ndisp,
                               acc.itemsize + cost_type(cmax, acc).itemsize,
-                              down * acc.itemsize, band_bytes)
+                              down * acc.itemsize * (ndisp + 2 * pad) / ndisp, band_bytes)
     bands = [(y0, min(y0 + rows_per_band, height)) for y0 in range(0, height, rows_per_band)]
     costs = np.empty((rows_per_band, width, ndisp), cost_type(cmax, acc))
     sums = np.empty((rows_per_band, width, ndisp), acc)
     never = int(np.iinfo(acc).max)
-    big = cmax + p2  # above every path value: the d axis's sentinels
+    big = sentinel(cmax, p2, banded)  # the d axis's sentinels
 
     def fresh_state():
-        state = np.zeros((2, width, ndisp + 2), acc)
-        state[:, :, 0] = state[:, :, -1] = big
+        state = np.full((2, width, ndisp + 2 * pad), big, acc)
+        state[:, :, pad:pad + ndisp] = 0
         return state, np.zeros((2, width), acc)
 
     down, down_mins = fresh_state()
@@ -280,7 +315,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                 right_disp=maps[3], lr_valid=lr_valid, window=s.window, dmin=s.dmin,
                 p1=p1, p2=p2, cmax=cmax, never=never, y0=0, y1=0, band_y0=0, x0=0, x1=0,
                 direction=1, add=0, extras=int(s.extras), keep_right=int(s.right_map),
-                lr_limit=s.lr_check, keyed=int(keyed_range() > 0))
+                lr_limit=s.lr_check, keyed=int(keyed_range() > 0), starts=starts)
     right_width = width + shift
     work_per_row = width * ndisp * 8
 
@@ -301,13 +336,12 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     def cost_scratch():
         # Hamming costs' ring of the window's rows (kernels/jit/sgm.py): w x Wp x D bytes
         ring = (s.window, left_p.shape[1], ndisp) if s.cost == SHD and s.window > 1 \
-            else (1, 1, 1)
-        return dict(col_sums=np.empty((left_p.shape[1], ndisp), acc),
+            and not banded else (1, 1, 1)
+        return dict(col_sums=np.empty((1, 1) if banded else (left_p.shape[1], ndisp), acc),
                     row_sums=np.empty(ndisp, acc), ring=np.empty(ring, np.uint8))
 
     def select_scratch():
-        line = np.empty((2, ndisp + 2), acc)
-        line[:, 0] = line[:, -1] = big
+        line = np.full((2, ndisp + 2 * pad), big, acc)
         return dict(line=line, right_best=np.empty(right_width, acc),
                     right_d=np.empty(right_width, np.int16))
 
@@ -354,7 +388,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         else:
             for array in (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
                                               if diagonals else ()):
-                _reset(array, big)
+                _reset(array, pad)
         vertical(y0, y1, down, down_mins, 1, 0)
         vertical(y0, y1, up, up_mins, -1, 1)
         if diagonals:
@@ -365,12 +399,21 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         disp, min_cost = disp[rows], min_cost[rows]
         *maps, lr_valid = (m[rows] if m.shape[0] == height else m for m in (*maps, lr_valid))
     plain = candidate_count(width, s.dmin, s.dmax) * rows.size
-    return result(disp, min_cost, plain, plain, s, maps,
+    searched = min(plain, rows.size * width * ndisp) if banded else plain
+    return result(disp, min_cost, searched, plain, s, maps,
                   lr_valid.view(np.bool_) if checked else None)
 
 
-def _reset(array, big):
-    """A path state (or its minima) as at a path's start: zeros, sentinels at the ends."""
-    array[0] = 0
+def pad_of(slots, banded):
+    """The sentinels each side of a path state's ``slots`` values: one, or a banded
+    match's slots + 2 (kernels/jit/sgm.py)."""
+    return slots + 2 if banded else 1
+
+
+def _reset(array, pad):
+    """A path state (or its minima) as at a path's start: zeros between the sentinels
+    (pad each side of the d axis)."""
     if array.ndim == 3:
-        array[0, :, 0] = array[0, :, -1] = big
+        array[0, :, pad:array.shape[2] - pad] = 0
+    else:
+        array[0] = 0

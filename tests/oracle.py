@@ -276,9 +276,11 @@ SGM_PATHS = {4: ((0, 1), (0, -1), (1, 0), (-1, 0)),
 
 
 def sgm_volume(left, right, window, dmin, dmax, cost, census_window=5,
-               census_pattern="dense"):
+               census_pattern="dense", starts=None, band=None):
     """C (H, W, D) as Python-int-exact int64: the contract's window cost where the right
-    pixel x - d is in the image, else the largest cost a window can have."""
+    pixel x - d is in the image, else the largest cost a window can have.  With
+    ``starts`` (H, W) and ``band`` K: C (H, W, K), slot k of pixel p holding
+    d = dmin + starts[p] + k (a narrowed search: every d stays within dmin..dmax)."""
     pixels = np.asarray(left).dtype
     if cost == "census":
         bits = len([1 for a in range(census_window) for b in range(census_window)
@@ -294,20 +296,25 @@ def sgm_volume(left, right, window, dmin, dmax, cost, census_window=5,
         per_pixel = {"sad": top, "ssd": top * top, "shd": np.iinfo(pixels).bits}[cost]
     cmax = per_pixel * window * window
     height, width = left.shape
-    ds = list(range(dmin, dmax + 1))
-    volume = np.full((height, width, len(ds)), cmax, np.int64)
+    slots = dmax - dmin + 1 if starts is None else band
+    volume = np.full((height, width, slots), cmax, np.int64)
     for y in range(height):
         for x in range(width):
+            first = dmin + (0 if starts is None else int(starts[y, x]))
+            assert first + slots - 1 <= dmax
+            ds = range(first, first + slots)
             inside = [d for d in ds if 0 <= x - d <= width - 1]
             for d, c in zip(inside, window_costs(left, right, y, x, inside, window, cost),
                             strict=True):
-                volume[y, x, d - dmin] = c
+                volume[y, x, d - first] = c
     return volume
 
 
-def sgm_sums(volume, paths, p1, p2):
+def sgm_sums(volume, paths, p1, p2, starts=None):
     """S (H, W, D) int64: Hirschmueller's L_r summed over the paths, each path starting
-    with L = C at its first pixel inside the image."""
+    with L = C at its first pixel inside the image.  With ``starts`` (a narrowed
+    volume's, see sgm_volume), slot k of p meets the slots of p - r holding the same d
+    and d -/+ 1; a d that p - r did not search has no L (as one beyond the range)."""
     height, width, ndisp = volume.shape
     total = np.zeros_like(volume)
     for dy, dx in SGM_PATHS[paths]:
@@ -321,26 +328,31 @@ def sgm_sums(volume, paths, p1, p2):
                 if not (0 <= py < height and 0 <= px < width):
                     L[y, x] = c
                     continue
-                before = L[py, px]
-                least = before.min()
-                # min(L(k), L(k - 1) + P1, L(k + 1) + P1, least + P2), the neighbours
-                # beyond the range left out
-                lower = np.r_[np.inf, before[:-1] + p1]
-                upper = np.r_[before[1:] + p1, np.inf]
-                best = np.minimum(np.minimum(before, least + p2), np.minimum(lower, upper))
-                L[y, x] = c + best.astype(np.int64) - least
+                # around[1 + k]: L(p - r) at slot k's d, around[k], [k + 2] at d -/+ 1,
+                # infinite at d that p - r did not search
+                shift = 0 if starts is None else int(starts[y, x]) - int(starts[py, px])
+                searched = L[py, px].astype(np.float64)
+                least = searched.min()
+                slot = np.arange(-1, ndisp + 1) + shift
+                inside = (slot >= 0) & (slot < ndisp)
+                around = np.where(inside, searched[np.clip(slot, 0, ndisp - 1)], np.inf)
+                # min(L(k), L(k - 1) + P1, L(k + 1) + P1, least + P2)
+                best = np.minimum(np.minimum(around[1:-1], least + p2),
+                                  np.minimum(around[:-2], around[2:]) + p1)
+                L[y, x] = c + best.astype(np.int64) - int(least)
         total += L
     return total
 
 
 def sgm_match(left, right, window, dmin, dmax, cost, paths, p1, p2, census_window=5,
-              census_pattern="dense"):
+              census_pattern="dense", starts=None, band=None):
     """(disparity int32, min_cost int64, extras) as oracle_match's with ``extras``, the
-    costs being the sums S over the candidates whose right pixel is in the image."""
+    costs being the sums S over the candidates whose right pixel is in the image (and,
+    with ``starts`` and ``band``, that the pixel searched: see sgm_volume)."""
     volume = sgm_volume(left, right, window, dmin, dmax, cost, census_window,
-                        census_pattern)
-    total = sgm_sums(volume, paths, p1, p2)
-    height, width, _ = volume.shape
+                        census_pattern, starts, band)
+    total = sgm_sums(volume, paths, p1, p2, starts)
+    height, width, slots = volume.shape
     invalid = -1 if dmin >= 0 else np.iinfo(np.int32).min
     disp = np.full((height, width), invalid, np.int32)
     mins = np.full((height, width), -1, np.int64)
@@ -350,8 +362,10 @@ def sgm_match(left, right, window, dmin, dmax, cost, paths, p1, p2, census_windo
     for y in range(height):
         seen = {}
         for x in range(width):
-            ds = [d for d in range(dmin, dmax + 1) if 0 <= x - d <= width - 1]
+            first = dmin + (0 if starts is None else int(starts[y, x]))
+            ds = [d for d in range(first, first + slots) if 0 <= x - d <= width - 1]
             if not ds:
                 continue
-            record(ds, [int(total[y, x, d - dmin]) for d in ds], y, x, disp, mins, more, seen)
+            record(ds, [int(total[y, x, d - first]) for d in ds], y, x, disp, mins, more,
+                   seen)
     return disp, mins, more

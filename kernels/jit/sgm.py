@@ -25,6 +25,15 @@ Path states: state (2, W, D + 2) two buffers of each column's L along a vertical
 diagonal path (the row before and the row being made), with a sentinel (``big``) at both
 ends of the d axis, so that L(k - 1) and L(k + 1) need no test; mins (2, W) their
 minima.  Buffer 0 holds the state when a step starts and when it ends.
+
+A narrowed variant ("banded") searches K slots a pixel, slot k of pixel p holding
+d = dmin + starts[p] + k: the cost slab is (B, W, K), and a path meets p - r's slots
+of d and d -/+ 1, shift = starts[p] - starts[p - r] slots away; a d that p - r did not
+search has no L, as one beyond the range.  Its states are (2, W, K +
+2 * pad), pad = K + 2, the values in the middle K and sentinels in the pads, so that a
+shift clipped to +-(K + 1) reads only sentinels where p - r did not search: a view
+shifted by it is path_step's ``before``, unchanged.  Its sentinel is above every
+min_j L + P2, so that a d without L is as one beyond the range (kernels/sgm.py).
 """
 
 import numpy as np
@@ -45,11 +54,13 @@ SC = scalar_index(("step", "window", "dmin", "p1", "p2", "cmax", "never", "y0", 
                    "lr_limit", "keyed"))
 
 
-def spec(cost, pixels, costs, accumulator, negative=False):
+
+def spec(cost, pixels, costs, accumulator, negative=False, banded=False):
     """The worker of a variant: cost "sad", "ssd" or "shd" (census codes compared with
     shd); pixels: the compared type; costs: the cost slab's type ("u8" where every cost
     fits a byte, else the accumulator's); accumulator: "u16" or "u32", of paths and
-    sums; negative: the range starts below 0."""
+    sums; negative: the range starts below 0; banded: each pixel searches its own
+    slots (see above)."""
     pix, cst, acc = dtype_of(pixels), dtype_of(costs), dtype_of(accumulator)
     i16, i32, i64, u8 = (np.dtype(t) for t in (np.int16, np.int32, np.int64, np.uint8))
     arrays = (arg("left_p", pix, 2), arg("right_rev", pix, 2),  # (H + w - 1, Wp [+ s])
@@ -63,14 +74,15 @@ def spec(cost, pixels, costs, accumulator, negative=False):
               arg("disp", i32, 2), arg("min_cost", i64, 2),  # (H, W) out
               arg("second", i64, 2), arg("prev", i64, 2), arg("next", i64, 2),  # extras
               arg("right_disp", i32, 2), arg("lr_valid", u8, 2),  # or 1-row dummies
+              arg("starts", i32, 2),  # (H, W) a banded variant's, else (1, 1)
               arg("stop", u8, 1))
-    return Spec(_make(cost, cst.type, acc.type, bool(negative)),
+    return Spec(_make(cost, cst.type, acc.type, bool(negative), bool(banded)),
                 Signature(arrays, SC._fields))
 
 
-def _make(cost, cost_type, acc, negative):
-    """The worker of one variant; ``cost``, the slab's ``cost_type``, ``acc`` and
-    ``negative`` are compile-time constants in it."""
+def _make(cost, cost_type, acc, negative, banded):
+    """The worker of one variant; ``cost``, the slab's ``cost_type``, ``acc``,
+    ``negative`` and ``banded`` are compile-time constants in it."""
     from ..contract import INVALID, NEG_INVALID
 
     invalid = NEG_INVALID if negative else INVALID
@@ -136,6 +148,42 @@ def _make(cost, cost_type, acc, negative):
             else:
                 for k in range(min(ndisp, j - dmin + 1)):
                     s[k] = s[k] + psi(lv, r[k]) - psi(lv_sub, r_sub[k])
+
+    @njit(**SERIAL)
+    def banded_cost_rows(left_p, right_rev, costs, sums, starts, sc, stop):
+        """costs[y - band_y0, x, k] = C(y, x, dmin + starts[y, x] + k) for rows y0 <= y
+        < y1, each window summed whole (neighbours search other slots: no sums to
+        share); sums (D,) scratch."""
+        w, dmin, cmax = sc[SC.window], sc[SC.dmin], cost_type(sc[SC.cmax])
+        y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
+        width, slots = costs.shape[1], costs.shape[2]
+        wr = right_rev.shape[1]
+        for y in range(y0, y1):
+            if stop_requested(stop):
+                return 0
+            out = costs[y - band_y0]
+            for x in range(width):
+                first = dmin + starts[y, x]
+                # Candidates: d <= x and x - d <= width - 1 (k in lo..n - 1).
+                n = max(min(slots, x - first + 1), 0)
+                lo = min(max(x - first - (width - 1), 0), n) if negative else 0
+                for k in range(lo, n):
+                    sums[k] = 0
+                for a in range(w):
+                    left, right = left_p[y + a], right_rev[y + a]
+                    for b in range(w):
+                        lv = left[x + b]
+                        r = right[wr - 1 - (x + b) + first:]
+                        for k in range(lo, n):
+                            sums[k] = sums[k] + psi(lv, r[k])
+                c = out[x]
+                for k in range(lo):
+                    c[k] = cmax
+                for k in range(lo, n):
+                    c[k] = cost_type(sums[k])
+                for k in range(n, slots):
+                    c[k] = cmax
+        return 0
 
     @njit(**SERIAL)
     def cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, sc, stop):
@@ -230,10 +278,23 @@ def _make(cost, cost_type, acc, negative):
         return best
 
     @njit(**SERIAL)
-    def fresh(state):
+    def pad_of(slots):
+        """The sentinels each side of a path state's ``slots`` values (see above; the
+        driver's kernels/sgm.py:pad_of)."""
+        return slots + 2 if banded else 1
+
+    @njit(**SERIAL)
+    def fresh(state, pad):
         """A path's state before its first pixel: zeros between the sentinels."""
-        for k in range(1, state.shape[0] - 1):
+        for k in range(pad, state.shape[0] - pad):
             state[k] = 0
+
+    @njit(**SERIAL)
+    def shifted(state, shift, slots, pad):
+        """The view of a path state whose [1 + k] holds slot k + shift (a sentinel where
+        that is not a slot): path_step's ``before``; shift 0, ``after``."""
+        shift = max(min(shift, slots + 1), -(slots + 1))
+        return state[pad - 1 + shift:pad + slots + 1 + shift]
 
     @njit(**SERIAL)
     def path_start(cost, after, never):
@@ -264,7 +325,7 @@ def _make(cost, cost_type, acc, negative):
         mins[0, x] = mins[1, x]
 
     @njit(**SERIAL)
-    def vertical(costs, sums, state, mins, sc, stop):
+    def vertical(costs, sums, state, mins, starts, sc, stop):
         """The vertical path down (direction 1) or up (-1) over the band's rows y0 <=
         y < y1 (image rows; the slabs start at band_y0), columns x0 <= x < x1, from the
         state the band's neighbour left (fresh where y0 is the image's first row going
@@ -275,6 +336,8 @@ def _make(cost, cost_type, acc, negative):
         x0, x1, add = sc[SC.x0], sc[SC.x1], sc[SC.add]
         down = sc[SC.direction] > 0
         rows = y1 - y0
+        slots = costs.shape[2]
+        pad = pad_of(slots)
         for i in range(rows):
             if stop_requested(stop):
                 return 0
@@ -282,6 +345,16 @@ def _make(cost, cost_type, acc, negative):
             before, after = i % 2, 1 - i % 2
             row = costs[y - band_y0]
             band_sums = sums[y - band_y0] if add < 2 else sums[0]
+            if banded:
+                y_before = y - 1 if down else y + 1  # none: a fresh state, no shift
+                has_before = 0 <= y_before < starts.shape[0]
+                for x in range(x0, x1):
+                    shift = starts[y, x] - starts[y_before, x] if has_before else 0
+                    mins[after, x] = path_step_into(
+                        shifted(state[before, x], shift, slots, pad), mins[before, x],
+                        row[x], shifted(state[after, x], 0, slots, pad), band_sums[x], add,
+                        p1, p2, never)
+                continue
             for x in range(x0, x1):
                 mins[after, x] = path_step_into(state[before, x], mins[before, x], row[x],
                                                 state[after, x], band_sums[x], add, p1, p2,
@@ -292,7 +365,7 @@ def _make(cost, cost_type, acc, negative):
         return 0
 
     @njit(**SERIAL)
-    def diagonal(costs, sums, state, mins, other, other_mins, sc, stop):
+    def diagonal(costs, sums, state, mins, other, other_mins, starts, sc, stop):
         """The two diagonal paths going down (direction 1: from up-left and up-right)
         or up (-1: from down-left and down-right) over the band's rows, every column:
         state for the path coming from the left (x - 1), other for the one from the
@@ -300,7 +373,8 @@ def _make(cost, cost_type, acc, negative):
         p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
         y0, y1, band_y0, add = sc[SC.y0], sc[SC.y1], sc[SC.band_y0], sc[SC.add]
         down = sc[SC.direction] > 0
-        width = costs.shape[1]
+        width, slots = costs.shape[1], costs.shape[2]
+        pad = pad_of(slots)
         rows = y1 - y0
         for i in range(rows):
             if stop_requested(stop):
@@ -308,22 +382,29 @@ def _make(cost, cost_type, acc, negative):
             y = y0 + i if down else y1 - 1 - i
             before, after = i % 2, 1 - i % 2
             row = costs[y - band_y0]
+            y_before = y - 1 if down else y + 1
+            has_before = banded and 0 <= y_before < starts.shape[0]
             for x in range(width):
+                here = shifted(state[after, x], 0, slots, pad)
+                there = shifted(other[after, x], 0, slots, pad)
                 if x == 0:
-                    mins[after, x] = path_start(row[x], state[after, x], never)
+                    mins[after, x] = path_start(row[x], here, never)
                 else:
-                    mins[after, x] = path_step(state[before, x - 1], mins[before, x - 1],
-                                               row[x], state[after, x], p1, p2, never)
+                    shift = starts[y, x] - starts[y_before, x - 1] if has_before else 0
+                    mins[after, x] = path_step(
+                        shifted(state[before, x - 1], shift, slots, pad),
+                        mins[before, x - 1], row[x], here, p1, p2, never)
                 if x == width - 1:
-                    other_mins[after, x] = path_start(row[x], other[after, x], never)
+                    other_mins[after, x] = path_start(row[x], there, never)
                 else:
-                    other_mins[after, x] = path_step(other[before, x + 1],
-                                                     other_mins[before, x + 1], row[x],
-                                                     other[after, x], p1, p2, never)
+                    shift = starts[y, x] - starts[y_before, x + 1] if has_before else 0
+                    other_mins[after, x] = path_step(
+                        shifted(other[before, x + 1], shift, slots, pad),
+                        other_mins[before, x + 1], row[x], there, p1, p2, never)
                 if add < 2:
                     s = sums[y - band_y0, x]
-                    add_into(s, state[after, x], add)
-                    add_into(s, other[after, x], 1)
+                    add_into(s, here, add)
+                    add_into(s, there, 1)
         if rows % 2:
             for x in range(width):
                 copy_state(state, mins, x)
@@ -332,7 +413,7 @@ def _make(cost, cost_type, acc, negative):
 
     @njit(**SERIAL)
     def select_rows(costs, sums, line, right_best_rev, right_rev_d, disp, min_cost,
-                    second, prev, nxt, right_disp, lr_valid, sc, stop):
+                    second, prev, nxt, right_disp, lr_valid, starts, sc, stop):
         """For rows y0 <= y < y1: the path from the right added into the row's sums,
         then the path from the left made on the way to each pixel's winner, second
         best, neighbours, and right map, and the row's left-right check (as the fast
@@ -343,6 +424,7 @@ def _make(cost, cost_type, acc, negative):
         keep_right, lr_limit = sc[SC.keep_right], sc[SC.lr_limit]
         track_right = keep_right != 0 or lr_limit >= 0
         width, ndisp = costs.shape[1], costs.shape[2]
+        pad = pad_of(ndisp)
         shift = -dmin if negative else 0
         keyed = sc[SC.keyed] != 0
         for y in range(y0, y1):
@@ -351,32 +433,41 @@ def _make(cost, cost_type, acc, negative):
             row, total = costs[y - band_y0], sums[y - band_y0]
             # A path starts from a state of zeros with least 0: its first values are
             # then the costs themselves (min(0, P1, P2) = 0), with no branch.
-            fresh(line[1])
+            fresh(line[1], pad)
             least = acc(0)
             for i in range(width):
                 x = width - 1 - i
                 before, after = (i + 1) % 2, i % 2
+                b, a = line[before], line[after]
+                if banded:
+                    moved = starts[y, x] - starts[y, x + 1] if i > 0 else 0
+                    b, a = shifted(b, moved, ndisp, pad), shifted(a, 0, ndisp, pad)
                 if x >= AHEAD:  # this path walks memory downwards: see prefetch
                     ahead_cost, ahead_sum = row[x - AHEAD], total[x - AHEAD]
                     for k in range(0, ndisp, 64 // ahead_sum.itemsize):
                         prefetch(ahead_sum, k)
                     for k in range(0, ndisp, 64 // ahead_cost.itemsize):
                         prefetch(ahead_cost, k)
-                least = path_step_into(line[before], least, row[x], line[after], total[x],
-                                       1, p1, p2, never)
+                least = path_step_into(b, least, row[x], a, total[x], 1, p1, p2, never)
             if track_right:
                 right_best_rev[:] = never
                 right_rev_d[:] = -1
             out_disp, out_cost = disp[y], min_cost[y]
-            fresh(line[1])
+            fresh(line[1], pad)
             least = acc(0)
             for x in range(width):
                 before, after = (x + 1) % 2, x % 2
                 t = total[x]
                 a, b = line[after], line[before]
+                start = 0
+                if banded:
+                    start = starts[y, x]
+                    moved = start - starts[y, x - 1] if x > 0 else 0
+                    b, a = shifted(b, moved, ndisp, pad), shifted(a, 0, ndisp, pad)
                 c = row[x]
-                n = max(min(ndisp, x - dmin + 1), 0)
-                lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
+                first_d = dmin + start
+                n = max(min(ndisp, x - first_d + 1), 0)
+                lo = min(max(x - first_d - (width - 1), 0), n) if negative else 0
                 # The path from the left, its values added into the totals, and the
                 # least total among the candidates at its smallest k, in one pass.
                 jump = acc(least + p2)
@@ -416,16 +507,16 @@ def _make(cost, cost_type, acc, negative):
                     if extras:
                         second[y, x], prev[y, x], nxt[y, x] = -1, -1, -1
                     continue
-                out_disp[x] = dmin + first
+                out_disp[x] = first_d + first
                 out_cost[x] = best
-                if track_right:
-                    base = width - 1 - x + dmin + shift
+                if track_right:  # right_rev_d holds d - dmin
+                    base = width - 1 - x + first_d + shift
                     best_r = right_best_rev[base:]
                     d_r = right_rev_d[base:]
                     for k in range(lo, n):
                         v = t[k]
                         kept = best_r[k]
-                        d_r[k] = keep_or_take(d_r[k], k, v < kept)
+                        d_r[k] = keep_or_take(d_r[k], k + start, v < kept)
                         best_r[k] = min(v, kept)
                 if extras:
                     # The least total 2 or more from first: one plain minimum with the
@@ -462,15 +553,17 @@ def _make(cost, cost_type, acc, negative):
     @njit(**SERIAL)
     def worker(left_p, right_rev, costs, sums, col_sums, row_sums, ring, state, mins,
                other, other_mins, line, right_best, right_d, disp, min_cost, second, prev,
-               nxt, right_disp, lr_valid, stop, sc):
+               nxt, right_disp, lr_valid, starts, stop, sc):
         step = sc[SC.step]
         if step == COSTS:
+            if banded:
+                return banded_cost_rows(left_p, right_rev, costs, row_sums, starts, sc, stop)
             return cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, sc, stop)
         if step == VERTICAL:
-            return vertical(costs, sums, state, mins, sc, stop)
+            return vertical(costs, sums, state, mins, starts, sc, stop)
         if step == DIAGONAL:
-            return diagonal(costs, sums, state, mins, other, other_mins, sc, stop)
+            return diagonal(costs, sums, state, mins, other, other_mins, starts, sc, stop)
         return select_rows(costs, sums, line, right_best, right_d, disp, min_cost, second,
-                           prev, nxt, right_disp, lr_valid, sc, stop)
+                           prev, nxt, right_disp, lr_valid, starts, sc, stop)
 
     return worker

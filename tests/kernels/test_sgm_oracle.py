@@ -20,11 +20,14 @@ def pair(rng, height, width, dtype=np.uint8, shift=2, noise=12):
     return left.astype(dtype), np.clip(right, 0, top).astype(dtype)
 
 
-def assert_equals_oracle(left, right, band_bytes=None, threads=1, lr=1, **kw):
+def assert_equals_oracle(left, right, band_bytes=None, threads=1, lr=1, starts=None,
+                         slots=None, **kw):
     got = sgm.match_sgm(left, right, extras=True, right_map=True, lr_check=lr,
-                        band_bytes=band_bytes, threads=threads, **CENSUS, **kw)
+                        band_bytes=band_bytes, threads=threads, starts=starts, slots=slots,
+                        **CENSUS, **kw)
     disp, mins, more = sgm_match(left, right, kw["window"], kw["dmin"], kw["dmax"],
-                                 kw["cost"], kw["paths"], kw["p1"], kw["p2"], **CENSUS)
+                                 kw["cost"], kw["paths"], kw["p1"], kw["p2"], **CENSUS,
+                                 starts=starts, band=slots)
     np.testing.assert_array_equal(got.disparity, disp)
     np.testing.assert_array_equal(got.min_cost, mins)
     for name in ("second_cost", "prev_cost", "next_cost", "right_disparity"):
@@ -62,6 +65,52 @@ def test_bands_and_threads_change_nothing(paths, threads):
     row = one_row_bands(left, 0, 6)
     for band_bytes in (row, 2 * row + 1, 5 * row, None):
         assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
+
+
+def random_starts(rng, shape, ndisp, slots):
+    """Per-pixel starts in blobs, as a half-size pass makes them, with jumps between."""
+    coarse = rng.integers(0, ndisp - slots + 1, ((shape[0] + 2) // 3, (shape[1] + 2) // 3))
+    starts = np.kron(coarse, np.ones((3, 3), np.int64))[:shape[0], :shape[1]]
+    jitter = rng.integers(-1, 2, shape)
+    return np.clip(starts + jitter, 0, ndisp - slots).astype(np.int32)
+
+
+@pytest.mark.parametrize("cost", ["sad", "census"])
+@pytest.mark.parametrize("window", [1, 3])
+@pytest.mark.parametrize("paths", [4, 8])
+def test_narrowed_search_every_cost_window_and_path_count(cost, window, paths):
+    """Each pixel its own slots: the kernels meet the oracle's shifted paths."""
+    rng = np.random.default_rng(len(cost) * 10 + window + paths + 1)
+    left, right = pair(rng, 10, 16)
+    p1, p2 = sgm.default_penalties(cost, window, 8)
+    for dmin, dmax, slots in [(0, 9, 3), (-3, 5, 4), (2, 11, 1), (0, 6, 7)]:
+        starts = random_starts(rng, left.shape, dmax - dmin + 1, slots)
+        assert_equals_oracle(left, right, window=window, dmin=dmin, dmax=dmax, cost=cost,
+                             paths=paths, p1=p1, p2=p2, starts=starts, slots=slots)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_narrowed_search_bands_and_threads_change_nothing(threads):
+    rng = np.random.default_rng(threads + 40)
+    left, right = pair(rng, 11, 16)
+    starts = random_starts(rng, left.shape, 10, 4)
+    kw = dict(window=3, dmin=0, dmax=9, cost="sad", paths=8, p1=40, p2=300,
+              starts=starts, slots=4)
+    row = one_row_bands(left, 0, 3)
+    for band_bytes in (row, 2 * row + 1, 5 * row, None):
+        assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
+
+
+def test_narrowed_search_of_every_slot_is_the_whole_search():
+    rng = np.random.default_rng(3)
+    left, right = pair(rng, 8, 13)
+    kw = dict(window=3, dmin=-1, dmax=6, cost="census", paths=8, p1=5, p2=40,
+              lr_check=1, extras=True, right_map=True, **CENSUS)
+    whole = sgm.match_sgm(left, right, **kw)
+    narrowed = sgm.match_sgm(left, right, starts=np.zeros(left.shape, np.int32), slots=8,
+                             **kw)
+    for name in ("disparity", "min_cost", "second_cost", "right_disparity", "lr_valid"):
+        np.testing.assert_array_equal(getattr(narrowed, name), getattr(whole, name))
 
 
 def test_sixteen_bit_pixels_take_32_bit_sums():
