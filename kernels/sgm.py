@@ -159,13 +159,13 @@ def memory(height, width, ndisp, window, paths, threads, band_bytes=None, slots=
     (32-bit sums): the band's slabs, the paths' states and the down paths' states kept
     at each band's start, and each thread's cost scratch (column sums and Hamming
     costs' ring).  slots: a banded match's K (its slabs and states hold K, its states'
-    pads 2K + 4 more, and it has no column sums)."""
+    pads 2K + 4 more; its column sums the whole range; and its starts)."""
     if slots is not None:
         state = width * (3 * slots + 4) * 4
         rows = band_rows(height, width, slots, 8, state / width / slots, band_bytes)
         kept = (math.ceil(height / rows) - 1) * (3 if paths == 8 else 1) * state
-        return rows * width * slots * 8 + 4 * 3 * state + kept + threads * slots * 8 + \
-            height * width * 4
+        return rows * width * slots * 8 + 4 * 3 * state + kept + \
+            threads * (width + window) * ndisp * 4 + height * width * 4
     state = width * (ndisp + 2) * 4
     down = 3 if paths == 8 else 1
     rows = band_rows(height, width, ndisp, 8, down * state / width / ndisp, band_bytes)
@@ -251,7 +251,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
             raise ValueError(f"starts must lie in 0..{ndisp - slots} (dmax - dmin + 1 - "
                              "slots)")
         starts = np.ascontiguousarray(starts, np.int32)
-        ndisp = int(slots)
+        whole, ndisp = ndisp, int(slots)
     else:
         starts = np.zeros((1, 1), np.int32)
     h = s.window // 2
@@ -337,7 +337,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         # Hamming costs' ring of the window's rows (kernels/jit/sgm.py): w x Wp x D bytes
         ring = (s.window, left_p.shape[1], ndisp) if s.cost == SHD and s.window > 1 \
             and not banded else (1, 1, 1)
-        return dict(col_sums=np.empty((1, 1) if banded else (left_p.shape[1], ndisp), acc),
+        return dict(col_sums=np.empty((left_p.shape[1], whole if banded else ndisp), acc),
                     row_sums=np.empty(ndisp, acc), ring=np.empty(ring, np.uint8))
 
     def select_scratch():

@@ -217,6 +217,10 @@ OPTIONS = {o.name: o for o in [
     Option("sgm_p2", "auto_int", None, low=0, high=10**7, stage=True,
            default_text="4 x the default P1",
            help="Semi-global penalty for a larger disparity step (at least P1)."),
+    Option("sgm_narrow", "int", 0, low=0, high=32767, stage=True,
+           help="Semi-global matching's narrowed search: a half-size pass first, then each "
+                "pixel aggregates only N disparities around its half-size match (0: every "
+                "disparity of the range)."),
     Option("lr_check", "off_int", None, low=0, high=10**9, stage=True,
            help="Left-right check from the same costs: invalid where the right image's "
                 "match differs by more than N; 'off' to drop it."),
@@ -297,6 +301,7 @@ class Stages:
     sgm_paths: int
     sgm_p1: int | None
     sgm_p2: int | None
+    sgm_narrow: int
     lr_check: int | None
     uniqueness_ratio: int | None
     texture_threshold: int | None
@@ -413,7 +418,7 @@ def check_sgm_use(opts, given):
     """Refuse what semi-global matching can't take: CSW (its skips are local matching's),
     the window engine, penalties without it, or P1 above P2."""
     if opts["aggregate"] != "sgm":
-        for name in ("sgm_paths", "sgm_p1", "sgm_p2"):
+        for name in ("sgm_paths", "sgm_p1", "sgm_p2", "sgm_narrow"):
             if name in given and given[name] != OPTIONS[name].default:
                 raise OptionError(name, f"{name} applies only with aggregate='sgm' "
                                         f"(--aggregate sgm); add it or drop {name}")

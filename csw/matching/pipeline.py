@@ -33,6 +33,7 @@ import numpy as np
 from .. import kernels
 from ..kernels import filters, pad, sgm
 from ..kernels.contract import census_bits
+from . import narrow
 from .stages import active, needs_extras
 
 
@@ -172,7 +173,16 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
                    workspace=workspace, into=into)
     if stages.aggregate == "sgm":
         p1, p2 = penalties(stages, cost, kernel_args["window"], a.dtype)
-        raw = sgm.match_sgm(a, b, paths=stages.sgm_paths, p1=p1, p2=p2, **options,
+        starts = None
+        if stages.sgm_narrow:
+            starts = narrow.starts(a, b, dmin=kernel_args["dmin"], dmax=kernel_args["dmax"],
+                                   slots=stages.sgm_narrow, threads=kernel_args.get("threads"),
+                                   window=kernel_args["window"], cost=cost,
+                                   paths=stages.sgm_paths, p1=p1, p2=p2,
+                                   census_window=stages.census_window,
+                                   census_pattern=stages.census_pattern)
+        raw = sgm.match_sgm(a, b, paths=stages.sgm_paths, p1=p1, p2=p2, starts=starts,
+                            slots=None if starts is None else stages.sgm_narrow, **options,
                             **kernel_args)
     else:
         raw = kernels.match(a, b, **options, **kernel_args)

@@ -164,7 +164,7 @@ STAGES = (
     # beside them: the stripe planner keeps SGM_MARGIN rows each side and
     # reports/scale.md measures what that leaves different.  Its band's slabs are its
     # own, within kernels.sgm.BAND_BYTES.
-    Stage("sgm", ("aggregate", "sgm_paths", "sgm_p1", "sgm_p2"), "costs",
+    Stage("sgm", ("aggregate", "sgm_paths", "sgm_p1", "sgm_p2", "sgm_narrow"), "costs",
           on=lambda st, cost: st.aggregate == "sgm",
           input_rows=lambda st: SGM_MARGIN),
     Stage("lr_check", ("lr_check",), "check",

@@ -26,6 +26,8 @@ def summary_line(result):
     engine = f"{s['engine']} engine"
     if s.get("aggregate") == "sgm":
         mode = f"SGM {s['sgm_paths']} paths P1 {s['sgm_p1']} P2 {s['sgm_p2']}"
+        if s.get("sgm_narrow"):
+            mode += f", {s['sgm_narrow']} disparities a pixel after a half-size pass"
         engine = "semi-global"
     stripes = f", {result.stripes} stripe(s)" if result.stripes else ""
     notes = ""
@@ -75,7 +77,7 @@ MATCH_HELP = opt.sectioned(
     ("Disparity range", ["dmin", "dmax"]),
     ("Preset and matching cost", ["preset", "cost", "window", "census_window",
                                   "census_pattern"]),
-    ("Semi-global matching", ["aggregate", "sgm_paths", "sgm_p1", "sgm_p2"]),
+    ("Semi-global matching", ["aggregate", "sgm_paths", "sgm_p1", "sgm_p2", "sgm_narrow"]),
     ("Pipeline stages (on top of the preset)",
      ["prefilter", "prefilter_cap", "texture_threshold", "lr_check", "uniqueness_ratio",
       "subpixel", "speckle_size", "speckle_range", "median", "fill"]),

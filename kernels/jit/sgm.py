@@ -150,39 +150,54 @@ def _make(cost, cost_type, acc, negative, banded):
                     s[k] = s[k] + psi(lv, r[k]) - psi(lv_sub, r_sub[k])
 
     @njit(**SERIAL)
-    def banded_cost_rows(left_p, right_rev, costs, sums, starts, sc, stop):
+    def banded_cost_rows(left_p, right_rev, costs, columns, starts, sc, stop):
         """costs[y - band_y0, x, k] = C(y, x, dmin + starts[y, x] + k) for rows y0 <= y
-        < y1, each window summed whole (neighbours search other slots: no sums to
-        share); sums (D,) scratch."""
+        < y1.  Each row first sums each padded column's w costs, columns[j, d - dmin],
+        for the d that the pixels whose windows hold column j search; then each pixel
+        sums w columns.  columns: (Wp, D) scratch of the accumulator's type."""
         w, dmin, cmax = sc[SC.window], sc[SC.dmin], cost_type(sc[SC.cmax])
         y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
         width, slots = costs.shape[1], costs.shape[2]
-        wr = right_rev.shape[1]
+        wp, wr = left_p.shape[1], right_rev.shape[1]
         for y in range(y0, y1):
             if stop_requested(stop):
                 return 0
+            row_starts = starts[y]
+            for j in range(wp):
+                # Pixels j - w + 1 .. j hold padded column j in their windows.
+                first, last = 1 << 30, -1
+                for x in range(max(j - w + 1, 0), min(j, width - 1) + 1):
+                    first = min(first, row_starts[x])
+                    last = max(last, row_starts[x] + slots - 1)
+                # Right pixel j - d within the padded row: j - wp + 1 <= d <= j.
+                k0 = max(first, j - wp + 1 - dmin)
+                k1 = min(last, j - dmin)
+                column = columns[j]
+                for k in range(k0, k1 + 1):
+                    column[k] = 0
+                for a in range(w):
+                    lv = left_p[y + a, j]
+                    r = right_rev[y + a, wr - 1 - j + dmin:]
+                    for k in range(k0, k1 + 1):
+                        column[k] = column[k] + psi(lv, r[k])
             out = costs[y - band_y0]
             for x in range(width):
-                first = dmin + starts[y, x]
+                start = row_starts[x]
+                first_d = dmin + start
                 # Candidates: d <= x and x - d <= width - 1 (k in lo..n - 1).
-                n = max(min(slots, x - first + 1), 0)
-                lo = min(max(x - first - (width - 1), 0), n) if negative else 0
-                for k in range(lo, n):
-                    sums[k] = 0
-                for a in range(w):
-                    left, right = left_p[y + a], right_rev[y + a]
-                    for b in range(w):
-                        lv = left[x + b]
-                        r = right[wr - 1 - (x + b) + first:]
-                        for k in range(lo, n):
-                            sums[k] = sums[k] + psi(lv, r[k])
+                n = max(min(slots, x - first_d + 1), 0)
+                lo = min(max(x - first_d - (width - 1), 0), n) if negative else 0
                 c = out[x]
                 for k in range(lo):
                     c[k] = cmax
-                for k in range(lo, n):
-                    c[k] = cost_type(sums[k])
                 for k in range(n, slots):
                     c[k] = cmax
+                for k in range(lo, n):
+                    c[k] = 0
+                for b in range(w):
+                    column = columns[x + b, start:]
+                    for k in range(lo, n):
+                        c[k] = c[k] + column[k]
         return 0
 
     @njit(**SERIAL)
@@ -557,7 +572,7 @@ def _make(cost, cost_type, acc, negative, banded):
         step = sc[SC.step]
         if step == COSTS:
             if banded:
-                return banded_cost_rows(left_p, right_rev, costs, row_sums, starts, sc, stop)
+                return banded_cost_rows(left_p, right_rev, costs, col_sums, starts, sc, stop)
             return cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, sc, stop)
         if step == VERTICAL:
             return vertical(costs, sums, state, mins, starts, sc, stop)

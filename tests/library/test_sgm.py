@@ -87,9 +87,76 @@ def test_threads_and_bands_change_nothing_in_the_pipeline(monkeypatch):
     (dict(aggregate="sgm", sgm_p1=9, sgm_p2=3), "must not exceed"),
     (dict(aggregate="sgm", engine="window"), "computes its own costs"),
     (dict(aggregate="sgm", sgm_paths=5), "sgm_paths must be one of 4, 8"),
+    (dict(sgm_narrow=24), "applies only with aggregate='sgm'"),
+    (dict(aggregate="sgm", sgm_narrow=-1), "sgm_narrow"),
 ])
 def test_bad_sgm_options_fail_at_the_door(given, message):
     with pytest.raises(params.OptionError, match=message):
         params.resolve(**given)
     with pytest.raises(ValueError, match=message):
         csw.Matcher(**given)
+
+
+def test_a_narrowed_search_is_the_kernels_over_the_half_size_passes_starts():
+    """The pipeline's narrowed search is kernels.sgm.match_sgm over csw.matching.narrow's
+    starts (test_sgm_oracle.py ties those kernels to the oracle)."""
+    from csw.matching import narrow
+
+    left, right, _, _ = render(96, 64, dmax=30, seed=6)
+    result = csw.match(left, right, preset="raw", cost="sad", window=3, dmin=0, dmax=31,
+                       aggregate="sgm", sgm_p1=30, sgm_p2=200, sgm_narrow=8, threads=1)
+    kw = dict(window=3, cost="sad", paths=4, p1=30, p2=200)
+    starts = narrow.starts(left, right, dmin=0, dmax=31, slots=8, **kw)
+    assert starts.shape == left.shape and 0 <= starts.min() <= starts.max() <= 32 - 8
+    raw = sgm.match_sgm(left, right, dmin=0, dmax=31, starts=starts, slots=8, **kw)
+    expected = np.where(raw.disparity >= 0, raw.disparity, np.nan).astype(np.float32)
+    np.testing.assert_array_equal(result.disparity, expected)
+
+
+def test_a_narrowed_search_as_wide_as_the_range_is_the_whole_search():
+    left, right, _, _ = render(64, 40, dmax=8, seed=1)
+    whole = csw.match(left, right, preset="sgm", dmax=15)
+    wide = csw.match(left, right, preset="sgm", dmax=15, sgm_narrow=16)
+    np.testing.assert_array_equal(whole.disparity, wide.disparity)
+    assert wide.settings["sgm_narrow"] == 16
+
+
+def test_the_half_size_pass_puts_the_true_disparity_in_the_slots():
+    """On a scene with ground truth, the slots hold the true disparity wherever the
+    whole search finds it, nearly, and the narrowed map is within a point of bad-2 of
+    the whole search's.  (The slots miss it most near depth edges, where a span wider
+    than the slots is centred on the pixel's own half-size match.)"""
+    from csw.matching import narrow
+
+    left, right, gt, _ = render(320, 240, dmax=60, seed=4)
+    p1, p2 = sgm.default_penalties("census", 5, 32)
+    starts = narrow.starts(left, right, dmin=0, dmax=63, slots=24, window=5,
+                           cost="census", paths=4, p1=p1, p2=p2, census_window=9,
+                           census_pattern="sparse")
+    known = np.isfinite(gt)
+    maps = {narrowed: csw.match(left, right, preset="sgm", dmax=63,
+                                sgm_narrow=narrowed).disparity for narrowed in (0, 24)}
+    found = known & (np.abs(maps[0] - gt) <= 2)
+    truth = np.rint(gt[found])
+    inside = (starts[found] <= truth) & (truth < starts[found] + 24)
+    assert inside.mean() > 0.98
+    bad = {k: score(disp, gt, {"all": known}, (2.0,))["all"]["bad"][2.0]
+           for k, disp in maps.items()}
+    assert bad[24] <= bad[0] + 1.0  # measured: 9.8 against 9.1
+
+
+def test_row_spans_take_the_nearest_matches_either_side():
+    from csw.matching import narrow
+
+    disp = np.array([[5, 0, 0, 9, 0], [0, 0, 0, 0, 0], [0, 0, 4, 0, 0]])
+    valid = np.array([[1, 0, 0, 1, 0], [0, 0, 0, 0, 0], [0, 0, 1, 0, 0]], bool)
+    low, high = narrow.row_spans(disp, valid)
+    np.testing.assert_array_equal(low, [[5, 5, 5, 9, 9], [-1] * 5, [4] * 5])
+    np.testing.assert_array_equal(high, [[5, 9, 9, 9, 9], [-1] * 5, [4] * 5])
+
+
+def test_half_size_images_are_block_means():
+    from csw.matching import narrow
+
+    image = np.array([[0, 2, 9, 9, 7], [1, 1, 9, 8, 7], [5, 5, 5, 5, 5]], np.uint8)
+    np.testing.assert_array_equal(narrow.half(image), [[1, 9]])

@@ -1,0 +1,87 @@
+"""Semi-global matching's narrowed search (option sgm_narrow, docs/engines.md): a
+half-size pass says where each pixel's match lies, and the full-size pass aggregates
+only K disparities around it, as tSGM does in photogrammetry.  The paths' work and
+memory shrink from the range to K; the half-size pass costs an eighth of a whole
+search.
+
+Each full-size pixel's span is that of the half-size matches in its 3 x 3 half-size
+neighbourhood, doubled, MARGIN wider each side; a half-size pixel the left-right check
+left without a match spans its row's nearest matches on either side.  K slots centred
+on the span cover it where it is at most K wide; where it is wider (a depth edge), K
+slots centred on the pixel's own half-size match.
+"""
+
+import numpy as np
+
+from ..kernels import sgm
+
+# Disparities each side of the doubled half-size span: a half-size pixel's match is
+# within one of the truth there, which is two at full size.
+MARGIN = 2
+
+
+def half(image):
+    """The image at half size, (H // 2, W // 2): means of 2 x 2 blocks, rounded."""
+    h, w = image.shape[0] // 2 * 2, image.shape[1] // 2 * 2
+    blocks = image[:h, :w].reshape(h // 2, 2, w // 2, 2).astype(np.uint32)
+    return ((blocks.sum(axis=(1, 3)) + 2) // 4).astype(image.dtype)
+
+
+def row_spans(disp, valid):
+    """(low, high) (h, w): each pixel's match where valid, else the row's nearest valid
+    matches left and right of it (their least and greatest; one side if only one has
+    any); -1 where its row has none.  disp holds no negatives."""
+    h, w = disp.shape
+    cols = np.arange(w)
+    before = np.maximum.accumulate(np.where(valid, cols, -1), axis=1)
+    after = np.minimum.accumulate(np.where(valid, cols, w)[:, ::-1], axis=1)[:, ::-1]
+    rows = np.arange(h)[:, None]
+    left = np.where(before >= 0, disp[rows, np.clip(before, 0, w - 1)], -1)
+    right = np.where(after < w, disp[rows, np.clip(after, 0, w - 1)], -1)
+    low = np.where(left < 0, right, np.where(right < 0, left, np.minimum(left, right)))
+    high = np.maximum(left, right)
+    return low, high
+
+
+def neighbourhood(values, reduce):
+    """values (h, w) reduced over each pixel's 3 x 3 neighbourhood (edges repeated)."""
+    padded = np.pad(values, 1, mode="edge")
+    windows = np.lib.stride_tricks.sliding_window_view(padded, (3, 3))
+    return reduce(windows, axis=(2, 3))
+
+
+def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
+    """The full-size pass's starts, int32 (H, W) in 0..D - slots (kernels.sgm.match_sgm's),
+    from a half-size semi-global match of ``left``, ``right`` over half the range, with
+    match_options (window, cost, paths, p1, p2, census_window, census_pattern) as the
+    full pass's; None where the range is at most ``slots`` wide (nothing to narrow)."""
+    ndisp = dmax - dmin + 1
+    if slots >= ndisp or min(left.shape) < 4:
+        return None
+    height, width = left.shape
+    coarse = sgm.match_sgm(half(left), half(right), dmin=dmin // 2, dmax=-(-dmax // 2),
+                           lr_check=1, threads=threads, **match_options)
+    valid = coarse.lr_valid
+    # Offsets from the half range's start (none are negative), int64: no sum wraps.
+    offsets = coarse.disparity.astype(np.int64) - dmin // 2
+    low, high = row_spans(offsets, valid)
+    found = low >= 0
+    low = neighbourhood(np.where(found, low, np.iinfo(np.int32).max), np.min)
+    high = neighbourhood(np.where(found, high, -1), np.max)
+    known = low <= high  # none where no row of the neighbourhood had a match
+    own = np.where(valid, offsets, np.where(known, (low + high) // 2, 0))
+    # Back to full size: pixel (y, x) takes half-size pixel (y // 2, x // 2), the last
+    # row and column of an odd size their neighbour's.
+    ys = np.minimum(np.arange(height) // 2, low.shape[0] - 1)
+    xs = np.minimum(np.arange(width) // 2, low.shape[1] - 1)
+    low, high, own = (a[ys][:, xs] for a in (low, high, own))
+    base = 2 * (dmin // 2) - dmin  # full-size offset of the half range's start
+    first = 2 * low + base - MARGIN
+    last = 2 * high + base + MARGIN
+    span = last - first + 1
+    centred = first - (slots - span) // 2
+    on_own = 2 * own + base - slots // 2
+    start = np.where(span <= slots, centred, on_own)
+    # Where the neighbourhood had no half-size match at all: from the range's start.
+    start = np.where(known[ys][:, xs], start, 0)
+    return np.clip(start, 0, ndisp - slots).astype(np.int32)
