@@ -69,8 +69,12 @@ def speed(name, left, right, dmax, rounds):
                                                threads=1),
         "csw sgm, 2 threads": lambda: csw.match(left, right, preset=PRESET, dmin=0,
                                                 dmax=dmax, threads=2),
-        "csw accurate, 1 thread": lambda: csw.match(left, right, dmin=0, dmax=dmax,
-                                                    threads=1),
+        "csw sgm narrowed to 32, 1 thread": lambda: csw.match(
+            left, right, preset=PRESET, sgm_narrow=32, dmin=0, dmax=dmax, threads=1),
+        "csw sgm narrowed to 32, 2 threads": lambda: csw.match(
+            left, right, preset=PRESET, sgm_narrow=32, dmin=0, dmax=dmax, threads=2),
+        "csw accurate, 1 thread": lambda: csw.match(left, right, preset="accurate", dmin=0,
+                                                    dmax=dmax, threads=1),
         "SGBM, 1 thread": peer(sgbm, 1),
         "StereoBM, 1 thread": peer(bm, 1),
     }

@@ -94,7 +94,7 @@ def match(left, right, want_confidence=False, **options):
     left, right : path or ndarray
         Image files, or uint8/uint16 arrays (H, W) or (H, W, 3|4); colour is converted to
         gray with the ITU-R 601-2 luma, as ``csw match`` does.
-    preset : {"accurate", "raw", "paper"}
+    preset : {"sgm", "accurate", "raw", "paper"}
         A named set of the options below (see :data:`csw.config.params.PRESETS`); options given
         explicitly override it.  "paper" takes no stage.
     engine : {"fast", "window"}

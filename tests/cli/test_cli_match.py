@@ -27,9 +27,11 @@ def files_in(folder):
 def test_match_writes_pfm_equal_to_kernel(pair_files, tmp_path, small_scene):
     left, right = pair_files
     out = tmp_path / "d.pfm"
-    result = run("match", left, right, "-o", out, "--dmax", 16, "--csw", "--tau", 500)
+    result = run("match", left, right, "-o", out, "--dmax", 16, "--preset", "accurate",
+                 "--csw", "--tau", 500)
     assert result.exit_code == 0, result.output
-    expected = csw.match(small_scene[0], small_scene[1], dmax=16, csw=True, tau=500)
+    expected = csw.match(small_scene[0], small_scene[1], dmax=16, preset="accurate",
+                         csw=True, tau=500)
     got = read_pfm(out)
     want = np.where(expected.disparity >= 0, expected.disparity, np.inf).astype(np.float32)
     np.testing.assert_array_equal(got, want)
@@ -38,9 +40,10 @@ def test_match_writes_pfm_equal_to_kernel(pair_files, tmp_path, small_scene):
 
 
 @pytest.mark.parametrize("options, described", [
-    ((), "CENSUS (sparse 9x9 codes) 9x9 plain, preset accurate"),
-    (("--census-window", 5, "--census-pattern", "dense", "--window", 7),
-     "CENSUS (dense 5x5 codes) 7x7 plain, preset accurate"),
+    ((), "CENSUS (sparse 9x9 codes) 5x5 SGM 4 paths P1 200 P2 800, preset sgm"),
+    (("--preset", "accurate"), "CENSUS (sparse 9x9 codes) 9x9 plain, preset accurate"),
+    (("--preset", "accurate", "--census-window", 5, "--census-pattern", "dense",
+      "--window", 7), "CENSUS (dense 5x5 codes) 7x7 plain, preset accurate"),
     (("--preset", "raw"), "SAD 9x9 plain, preset raw")])
 def test_the_summary_names_the_census_codes_apart_from_the_window(pair_files, tmp_path,
                                                                    options, described):
@@ -68,16 +71,17 @@ def test_png_and_npy_outputs(pair_files, tmp_path, small_scene):
     assert run("match", left, right, "-o", tmp_path / "d.npy", "--dmax", 16).exit_code == 0
     expected = csw.match(small_scene[0], small_scene[1], dmax=16).disparity
     png = read_image(tmp_path / "d.png")
-    assert png.dtype == np.uint16
-    np.testing.assert_array_equal(png, np.where(expected >= 0, expected * 256, 0))
+    assert png.dtype == np.uint16  # KITTI's: d x 256, rounded; 0 where invalid
+    np.testing.assert_array_equal(png, np.where(expected >= 0, np.rint(expected * 256), 0))
     npy = np.load(tmp_path / "d.npy")
     np.testing.assert_array_equal(npy, np.nan_to_num(expected, nan=np.inf))
 
 
 def test_preview_cost_map_and_tau_auto(pair_files, tmp_path):
     left, right = pair_files
-    result = run("match", left, right, "-o", tmp_path / "d.pfm", "--dmax", 16, "--csw",
-                 "--preview", tmp_path / "v.png", "--cost-map", tmp_path / "m.pfm")
+    result = run("match", left, right, "-o", tmp_path / "d.pfm", "--dmax", 16, "--preset",
+                 "accurate", "--csw", "--preview", tmp_path / "v.png", "--cost-map",
+                 tmp_path / "m.pfm")
     assert result.exit_code == 0, result.output
     assert "(auto)" in result.stderr
     # The map in colour over its colour bar.
@@ -227,12 +231,12 @@ def test_installed_entry_point_runs_as_a_process(pair_files, tmp_path):
 def test_unique_rule_through_the_cli(pair_files, tmp_path, small_scene):
     left, right = pair_files
     out = tmp_path / "u.npy"
-    result = run("match", left, right, "-o", out, "--dmax", 16, "--csw", "--csw-rule",
-                 "unique", "--csw-margin", 20, "--engine", "window")
+    result = run("match", left, right, "-o", out, "--dmax", 16, "--preset", "accurate",
+                 "--csw", "--csw-rule", "unique", "--csw-margin", 20, "--engine", "window")
     assert result.exit_code == 0, result.output
     assert "CSW unique tau=none" in result.stderr
-    expected = csw.match(small_scene[0], small_scene[1], dmax=16, csw=True, tau="none",
-                         csw_rule="unique", csw_margin=20)
+    expected = csw.match(small_scene[0], small_scene[1], dmax=16, preset="accurate",
+                         csw=True, tau="none", csw_rule="unique", csw_margin=20)
     np.testing.assert_array_equal(np.load(out), np.nan_to_num(expected.disparity, nan=np.inf))
 
 
@@ -240,7 +244,8 @@ def test_engines_write_identical_maps(pair_files, tmp_path):
     left, right = pair_files
     for engine in ("window", "fast"):
         assert run("match", left, right, "-o", tmp_path / f"{engine}.pfm", "--dmax", 16,
-                   "--csw", "--tau", 700, "--engine", engine).exit_code == 0
+                   "--preset", "accurate", "--csw", "--tau", 700,
+                   "--engine", engine).exit_code == 0
     assert (tmp_path / "window.pfm").read_bytes() == (tmp_path / "fast.pfm").read_bytes()
 
 

@@ -36,13 +36,14 @@ def test_one_match_resolves_its_options_once(pair_files, tmp_path, monkeypatch, 
     assert len(calls) == 1, calls
 
 
-@pytest.mark.parametrize("engine", ["fast", "window"])
+@pytest.mark.parametrize("options", [("--preset", "accurate", "--engine", "fast"),
+                                     ("--preset", "accurate", "--engine", "window"), ()])
 def test_one_whole_match_validates_the_contract_once(pair_files, tmp_path, monkeypatch,
-                                                      engine):
+                                                      options):
     """The kernels' rules are checked once, at the kernel's entry, on the real pixels:
     the set-up before it checks the pair with the contract's own functions, not a
     second validate."""
-    from csw.kernels import contract, fast, window
+    from csw.kernels import contract, fast, sgm, window
 
     calls = []
     real = contract.validate
@@ -51,11 +52,10 @@ def test_one_whole_match_validates_the_contract_once(pair_files, tmp_path, monke
         calls.append(kwargs)
         return real(*args, **kwargs)
 
-    for module in (contract, fast, window):
+    for module in (contract, fast, sgm, window):
         monkeypatch.setattr(module, "validate", spy)
     result = CliRunner().invoke(cli, ["match", *map(str, pair_files), "-o",
-                                      str(tmp_path / "d.pfm"), "--dmax", "8",
-                                      "--engine", engine])
+                                      str(tmp_path / "d.pfm"), "--dmax", "8", *options])
     assert result.exit_code == 0, result.output
     assert len(calls) == 1
 

@@ -105,10 +105,11 @@ def test_the_stripes_of_one_pair_as_cluster_tasks(tmp_path, client):
     tifffile.imwrite(tmp_path / "l.tif", left, tile=(32, 32))
     tifffile.imwrite(tmp_path / "r.tif", right, tile=(32, 32))
     result = match_tiled(tmp_path / "l.tif", tmp_path / "r.tif", tmp_path / "d.tif",
-                         stripe_rows=20, client=client, dmax=20, subpixel="parabola",
-                         median=3)
+                         stripe_rows=20, client=client, dmax=20, preset="accurate",
+                         subpixel="parabola", median=3)
     assert len(result.plan.stripes) == 8
-    want = csw.match(left, right, dmax=20, subpixel="parabola", median=3).disparity
+    want = csw.match(left, right, dmax=20, preset="accurate", subpixel="parabola",
+                     median=3).disparity
     np.testing.assert_array_equal(tifffile.imread(tmp_path / "d.tif"), want)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.tif", "l.tif", "r.tif"]
 

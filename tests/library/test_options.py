@@ -98,7 +98,7 @@ def test_the_config_is_one_frozen_typed_record_of_the_table():
     table's names, typed, and that can't be changed in place."""
     import dataclasses
 
-    config = params.resolve(dmax=20)
+    config = params.resolve(preset="accurate", dmax=20)
     fields = {f.name for f in dataclasses.fields(params.Config)} - {"stages", "given",
                                                                      "range_source"}
     stage_fields = {f.name for f in dataclasses.fields(params.Stages)}
@@ -151,7 +151,8 @@ def test_a_calibration_s_ndisp_sets_an_ungiven_dmax_only():
 def test_options_that_need_csw_are_refused_without_it(name, value):
     with pytest.raises(params.OptionError, match="only with CSW on"):
         params.resolve(**{name: value})
-    assert getattr(params.resolve(csw=True, **{name: value}), name) is not None
+    assert getattr(params.resolve(preset="accurate", csw=True, **{name: value}),
+                   name) is not None
 
 
 def test_bad_options_fail_at_construction_not_at_the_first_pair():

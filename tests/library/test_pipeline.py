@@ -141,7 +141,7 @@ def test_each_stage_option_belongs_to_exactly_one_stage_record():
 
 
 def test_margins_and_entries_come_from_the_stage_records():
-    accurate = params.resolve().stages
+    accurate = params.resolve(preset="accurate").stages
     assert pipeline.row_overlap(accurate, 9, "census") == 4 + 4  # window, census 9x9
     assert pipeline.row_overlap(accurate, 9, "sad") == 4
     both = replace(params.OFF_STAGES, prefilter="xsobel", texture_threshold=10)

@@ -26,12 +26,13 @@ CASES = {
     "paper": dict(preset="paper"),
     "raw CSW literal, tau auto": dict(preset="raw", csw=True, tau="auto"),
     "raw CSW unique": dict(preset="raw", csw=True, csw_rule="unique"),
-    "accurate (census, LR, speckle)": dict(),
-    "every stage": dict(prefilter="xsobel", texture_threshold=30, uniqueness_ratio=10,
-                        subpixel="parabola", median=3, fill="background"),
+    "accurate (census, LR, speckle)": dict(preset="accurate"),
+    "every stage": dict(preset="accurate", prefilter="xsobel", texture_threshold=30,
+                        uniqueness_ratio=10, subpixel="parabola", median=3,
+                        fill="background"),
     "window engine, SSD, subpixel": dict(preset="raw", engine="window", cost="ssd",
                                          subpixel="linear", lr_check=1),
-    "accurate, a range from -6": dict(dmin=-6),
+    "accurate, a range from -6": dict(preset="accurate", dmin=-6),
 }
 
 
@@ -147,10 +148,10 @@ def test_stripe_cores_run_as_one_stripe_in_the_fast_engine():
 @pytest.mark.parametrize("suffix", [".tif", ".zarr", ".pfm", ".npy", ".png"])
 def test_every_output_format_holds_the_whole_image_map(tmp_path, scene, suffix):
     left, right, _, _ = scene
-    whole = map_ = csw.match(left, right, dmax=DMAX).disparity
+    whole = map_ = csw.match(left, right, dmax=DMAX, preset="accurate").disparity
     out = tmp_path / f"d{suffix}"
     tiled.match_tiled(left, right, out, preview=tmp_path / "p.png", stripe_rows=16,
-                      dmax=DMAX)
+                      dmax=DMAX, preset="accurate")
     if suffix == ".tif":
         got = tifffile.imread(out)
         with tifffile.TiffFile(out) as tif:
@@ -173,9 +174,10 @@ def test_a_zarr_output_is_replaced_whole(tmp_path, scene):
     left, right, _, _ = scene
     out = tmp_path / "d.zarr"
     tiled.match_tiled(left, right, out, stripe_rows=16, dmax=DMAX, preset="raw")
-    tiled.match_tiled(left, right, out, stripe_rows=16, dmax=DMAX)
+    tiled.match_tiled(left, right, out, stripe_rows=16, dmax=DMAX, preset="accurate")
     np.testing.assert_array_equal(zarr.open_array(out, mode="r")[:],
-                                  csw.match(left, right, dmax=DMAX).disparity)
+                                  csw.match(left, right, dmax=DMAX,
+                                            preset="accurate").disparity)
     (tmp_path / "folder.zarr").mkdir()
     (tmp_path / "folder.zarr" / "mine.txt").write_text("keep")
     with pytest.raises(ValueError, match="not a zarr store"):
@@ -225,10 +227,12 @@ def test_inputs_read_by_rows_equal_the_decoded_image(tmp_path, scene, layout):
     source = open_source(paths[0])
     np.testing.assert_array_equal(source.rows(0, HEIGHT), want_left)
     np.testing.assert_array_equal(source.rows(37, 52), want_left[37:52])
-    tiled.match_tiled(*paths, tmp_path / "d.npy", stripe_rows=20, dmax=DMAX)
+    # accurate: its stripes equal the whole image exactly (sgm's differ near their edges)
+    tiled.match_tiled(*paths, tmp_path / "d.npy", stripe_rows=20, dmax=DMAX,
+                      preset="accurate")
     np.testing.assert_array_equal(
         np.load(tmp_path / "d.npy"),
-        as_stored(csw.match(want_left, want_right, dmax=DMAX).disparity))
+        as_stored(csw.match(want_left, want_right, dmax=DMAX, preset="accurate").disparity))
 
 
 def read_image_png(folder, *colour):
@@ -279,10 +283,15 @@ def test_a_memory_limit_below_one_stripe_is_refused(tmp_path, scene):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_stripes_grow_with_the_memory_limit():
-    options = csw.config.params.resolve(dmax=64)
+# sgm's stripes hold 64 rows more each side and bands of 32 rows at least: about 0.8 GiB
+# at 20000 pixels wide, d 0..64
+@pytest.mark.parametrize("preset, limits", [
+    ("accurate", ("256MiB", "512MiB", "1GiB", "2GiB")),
+    ("sgm", ("1GiB", "2GiB", "4GiB", "8GiB"))])
+def test_stripes_grow_with_the_memory_limit(preset, limits):
+    options = csw.config.params.resolve(dmax=64, preset=preset)
     heights = [tiled_plan.plan(20000, 20000, options, tiled.parse_size(limit), threads=2)
-               .stripe_rows for limit in ("256MiB", "512MiB", "1GiB", "2GiB")]
+               .stripe_rows for limit in limits]
     assert heights == sorted(heights) and heights[0] < heights[-1] < 20000
     whole = tiled_plan.plan(500, 400, options, tiled.parse_size("512MiB"), threads=2)
     assert whole.stripes == [(0, 500)]
@@ -305,14 +314,17 @@ def test_memory_follows_the_stripe_not_the_image(tmp_path):
         write_tiff_scene(tmp_path / f"h{height}", 4000, height, dmax=32, seed=2, processes=1)
     write_tiff_scene(tmp_path / "small", 200, 60, dmax=32, seed=2, processes=1)
     limit, libraries = 64 * 2**20, 32 * 2**20
-    options = csw.config.params.resolve(dmax=32)
+    # accurate: the sgm preset's stripes hold 64 rows more each side and bands of 32 rows
+    # at least, more than this limit at 4000 pixels wide
+    options = csw.config.params.resolve(dmax=32, preset="accurate")
     assert tiled_plan.plan(1000, 4000, options, stripe_rows=1000).bytes_per_stripe > 3 * limit
     script = textwrap.dedent(f"""
         import sys, csw.scale.tiled as t
         def run(scene):
             return t.match_tiled(f"{tmp_path}/{{scene}}/left.tif",
                                  f"{tmp_path}/{{scene}}/right.tif",
-                                 f"{tmp_path}/{{scene}}/d.tif", memory_limit={limit}, dmax=32)
+                                 f"{tmp_path}/{{scene}}/d.tif", memory_limit={limit}, dmax=32,
+                                 preset="accurate")
         def status(key):
             for line in open("/proc/self/status"):
                 if line.startswith(key + ":"):
