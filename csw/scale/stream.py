@@ -21,6 +21,7 @@ import numpy as np
 from ..config.params import OptionError, resolve
 from ..io import safety
 from ..io.formats import check_range, suffixes, write_disparity
+from ..io.logs import LogError, format_stamp
 from ..io.pictures import INVALID, TURBO
 from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoReader, VideoWriter
 from ..matching.disparity_range import check_bounds
@@ -41,6 +42,7 @@ class Frame:
     right: np.ndarray | None = None
     colour: np.ndarray | None = None
     error: Exception | None = None
+    stamp: int | None = None  # a log's frame: the left header's stamp, nanoseconds
 
 
 def video_frames(left, right=None, sbs=False, colour=False):
@@ -205,10 +207,110 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
         failed frames' entries), interrupted, and pairs (read from the summary file when
         asked for; an empty list without one).
     """
+    config = _config(config, match_options)
+    inputs = [Path(p) for p in (left, right) if p is not None]
+    out_dir, summary = _check_outputs(config, inputs, out_dir, suffix, summary,
+                                      preview_video=preview_video)
+    frames, info = video_frames(left, right, sbs, colour=preview_sbs)
+    return _match_stream(frames, info, config, out_dir=out_dir, suffix=suffix,
+                         overwrite=overwrite, summary=summary, preview_video=preview_video,
+                         preview_sbs=preview_sbs, progress=progress, in_flight=in_flight,
+                         keep_range=keep_range)
+
+
+def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None,
+              depth=False, preview_video=None, preview_sbs=False, summary=None,
+              progress=True, in_flight=None, keep_range=True, config=None,
+              **match_options):
+    """Match every stereo frame of a robot's log: a ROS 1 bag, a ROS 2 bag (folder,
+    .db3 or .mcap) or a KITTI raw drive, as :func:`match_video` matches a video.
+
+    log : path or csw.io.logs.Log
+        The log, or one opened by :func:`csw.read_log` (its topics, rig, tolerance).
+    out_dir, suffix, overwrite, preview_video, preview_sbs, summary, progress,
+    in_flight, keep_range, **match_options
+        As for :func:`match_video`; each summary entry holds its frame's ``stamp_ns``.
+    bag_out : path, optional
+        A new bag (.bag: ROS 1; .mcap; else a ROS 2 bag folder) with each frame's
+        stereo_msgs/DisparityImage on NS/disparity and sensor_msgs/PointCloud2 on
+        NS/points2 (NS: the topics' namespace, as stereo_image_proc's), with ``depth``
+        a 32FC1 depth Image in metres on NS/depth: each with the frame's stamp and the
+        left frames' frame id (csw.io.bags).
+
+    Returns the summary, as :func:`match_video`'s, with "log": the topics, pairs,
+    unpaired frames (left, right), whether csw rectified the frames, and with which
+    rig.
+    """
+    from ..io.logs import Log
+
+    config = _config(config, match_options)
+    if isinstance(log, (str, os.PathLike)):
+        log = Log(log, colour=bag_out is not None or preview_sbs)
+    inputs = [log.path, *(log.rig.paths if log.rig is not None else ())]
+    out_dir, summary = _check_outputs(config, inputs, out_dir, suffix, summary,
+                                      preview_video=preview_video, bag_out=bag_out)
+    if bag_out is not None and log.calibration is None:
+        raise OptionError("bag_out", f"{log.path}: the log gives no calibration for its "
+                                     "rectified frames (no camera_info); give --rig")
+    if depth and bag_out is None:
+        raise OptionError("depth", "depth images go into --bag-out: give it")
+    info = {"rate": log.rate, "frames": log.pairs, "notes": [], "size": tuple(log.size),
+            "log": {"path": str(log.path), "left_topic": log.left_topic,
+                    "right_topic": log.right_topic, "pairs": log.pairs,
+                    "unpaired": {"left": log.unpaired[0], "right": log.unpaired[1]},
+                    "rectified_by_csw": log.rectifier is not None,
+                    "rig": log.rig.source if log.rig is not None else None}}
+    frames = (Frame(index, error=left, stamp=stamp) if isinstance(left, Exception) else
+              Frame(index, left, right, colour, stamp=stamp)
+              for index, left, right, colour, stamp in log.frames())
+    publish = None
+    if bag_out is not None:
+        from ..io.bags import BagWriter
+
+        publish = _Publisher(BagWriter(bag_out), log, config, depth)
+    return _match_stream(frames, info, config, out_dir=out_dir, suffix=suffix,
+                         overwrite=overwrite, summary=summary, preview_video=preview_video,
+                         preview_sbs=preview_sbs, progress=progress, in_flight=in_flight,
+                         keep_range=keep_range, rectifier=log.rectifier, publish=publish)
+
+
+class _Publisher:
+    """A log's frames' messages into a bag (csw.io.bags), on the topics' namespace."""
+
+    def __init__(self, writer, log, config, depth):
+        self.writer, self.depth = writer, depth
+        self.calibration, self.frame_id = log.calibration, log.frame_id
+        self.namespace = log.output_topics()
+
+    def __call__(self, frame, result):
+        from ..io.bags import stereo_messages
+
+        colour = frame.colour if frame.colour is not None else frame.left
+        settings = dict(result.settings)
+        for name, msg in stereo_messages(self.writer, frame.stamp, self.frame_id,
+                                         result.disparity, self.calibration, settings,
+                                         colour, self.depth):
+            self.writer.write(f"{self.namespace}/{name}", frame.stamp, msg)
+
+    def close(self):
+        return self.writer.close()
+
+    def discard(self):
+        self.writer.discard()
+
+
+def _config(config, match_options):
     if config is not None and match_options:
-        raise TypeError("give match_video its options or a resolved config, not both")
-    config = resolve(**match_options) if config is None else config
-    if out_dir is None and preview_video is None:
+        raise TypeError("give a stream its options or a resolved config, not both")
+    return resolve(**match_options) if config is None else config
+
+
+def _check_outputs(config, inputs, out_dir, suffix, summary, preview_video=None,
+                   bag_out=None):
+    """Before any frame is read: the stream's outputs (out_dir, summary, preview_video,
+    bag_out) checked against each other and the ``inputs``.  Returns (out_dir,
+    summary)."""
+    if out_dir is None and preview_video is None and bag_out is None:
         raise OptionError("output_dir", "give --output-dir for the maps, --preview-video, "
                                         "or both")
     if suffix not in suffixes("whole"):
@@ -219,14 +321,13 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
             check_range(f"map{suffix}", config.dmax, config.dmin)
         except ValueError as exc:
             raise OptionError("dmax", str(exc)) from None
-    inputs = [Path(p) for p in (left, right) if p is not None]
     for path in inputs:
         safety.protect(path)
     out_dir = Path(out_dir) if out_dir is not None else None
     if out_dir is not None and out_dir.exists() and not out_dir.is_dir():
         raise OptionError("output_dir", f"{out_dir} exists and is not a folder")
     summary = Path(summary) if summary else (out_dir / "summary.json" if out_dir else None)
-    checked = {"preview_video": preview_video, "summary": summary}
+    checked = {"preview_video": preview_video, "summary": summary, "bag_out": bag_out}
     real_inputs = {os.path.realpath(p): str(p) for p in inputs}
     for option, path in checked.items():
         if path is None:
@@ -238,39 +339,59 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
         if option == "preview_video" and Path(path).suffix.lower() not in WRITTEN_SUFFIXES:
             raise OptionError(option, f"{path} is not named as a video; use .mp4, .mkv, "
                                       ".mov or .avi")
-        safety.check_target(path, option)
+        if option == "bag_out" and os.path.lexists(path):
+            raise OptionError(option, f"{path} exists; csw writes a new bag, never over "
+                                      "one (remove it or name another)")
+        safety.check_target(path, option, folder_ok=option == "bag_out")
         folder = Path(path).parent
         if folder != out_dir and not folder.is_dir():
             raise OptionError(option, f"folder {str(folder)!r} does not exist; create it "
                                       "first")
-    if preview_video is not None and summary is not None and \
-            Path(preview_video).resolve() == Path(summary).resolve():
-        raise OptionError("preview_video", "the preview video and the summary are one file")
-    frames, info = video_frames(left, right, sbs, colour=preview_sbs)
-    check_bounds(config, info["size"][0])  # from the header: before a frame is decoded
-    if out_dir is not None:
-        try:
-            out_dir.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise OptionError("output_dir", f"can't create the folder {out_dir} "
-                                            f"({exc.strerror or exc})") from None
-    for option, folder in (("output_dir", out_dir), ("summary", summary and summary.parent),
-                           ("preview_video", preview_video and Path(preview_video).parent)):
-        if folder is not None and not os.access(folder or ".", os.W_OK):  # before decoding
-            raise OptionError(option, f"the folder {folder} is not writable")
-    matcher = Matcher(config=config, keep_range=keep_range)
+    named = [os.path.realpath(p) for p in checked.values() if p is not None]
+    if len(set(named)) < len(named):
+        raise OptionError("preview_video", "two outputs (preview video, summary, bag) are "
+                                           "one file")
+    return out_dir, summary
+
+
+def _match_stream(frames, info, config, *, out_dir, suffix, overwrite, summary,
+                  preview_video, preview_sbs, progress, in_flight, keep_range,
+                  rectifier=None, publish=None):
+    """The run shared by videos and logs: ``frames`` (Frame) matched through
+    Matcher.stream into the outputs checked by _check_outputs."""
     try:
-        run = _Run(out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
-                   info["rate"] or 30.0, progress, info["frames"] or None,
-                   each_range=not (keep_range or config.range_known))
-    except OSError as exc:  # its log beside the summary: the folder can't be written
-        folder = summary.parent if summary is not None else Path(".")
-        raise OptionError("output_dir", f"can't write in {folder} "
-                                        f"({exc.strerror or exc})") from None
+        check_bounds(config, info["size"][0])  # from the header: before a frame is decoded
+        if out_dir is not None:
+            try:
+                out_dir.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise OptionError("output_dir", f"can't create the folder {out_dir} "
+                                                f"({exc.strerror or exc})") from None
+        for option, folder in (("output_dir", out_dir),
+                               ("summary", summary and summary.parent),
+                               ("preview_video", preview_video and Path(preview_video).parent)):
+            if folder is not None and not os.access(folder or ".", os.W_OK):  # before decoding
+                raise OptionError(option, f"the folder {folder} is not writable")
+        matcher = Matcher(config=config, keep_range=keep_range)
+        try:
+            run = _Run(out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
+                       info["rate"] or 30.0, progress, info["frames"] or None,
+                       each_range=not (keep_range or config.range_known))
+        except OSError as exc:  # its log beside the summary: the folder can't be written
+            folder = summary.parent if summary is not None else Path(".")
+            raise OptionError("output_dir", f"can't write in {folder} "
+                                            f"({exc.strerror or exc})") from None
+    except BaseException:
+        if publish is not None:
+            publish.discard()
+        raise
+    run.rectifier, run.publish = rectifier, publish
+    run.extra = {key: info[key] for key in ("log",) if key in info}
     try:
         run.go(matcher, frames, in_flight)
-    except VideoError as exc:  # the stream can't go on (a size changed, a damaged file):
-        run.stopped = str(exc)  # what is done is kept, and the summary says why it ended
+    except (VideoError, LogError) as exc:  # the stream can't go on (a size changed, a
+        run.stopped = str(exc)  # damaged file): what is done is kept, and the summary
+        # says why it ended
     except KeyboardInterrupt:
         with signals_held():  # a second Ctrl-C waits until the summary is written
             run.finish(config, info["notes"], interrupted=True)
@@ -303,6 +424,9 @@ class _Run:
         self.bar = progress_bar(total, "csw match", "frame", progress is True)
         self.total = total
         self.stopped = None  # why the stream ended before its end, if it did
+        self.rectifier = None  # raw frames rectified: their maps' sourceless pixels go
+        self.publish = None  # a log's messages into a bag, per frame
+        self.extra = {}  # more of the summary (a log's topics and pairs)
         self.halt = None  # a write that stops the run (a full disk), once the frame is logged
 
     def map_path(self, index):
@@ -315,14 +439,15 @@ class _Run:
             for frame in frames:
                 if frame.error is not None:
                     with signals_held():
-                        self.add(frame.index, "failed", error=failure_message(frame.error))
+                        self.add(frame.index, "failed", error=failure_message(frame.error),
+                                 stamp=frame.stamp)
                         if self.preview is not None:  # the video's timing: a black frame
                             self.write_preview(frame, None)
                     continue
                 if self.out_dir is not None and not self.overwrite and \
                         self.map_path(frame.index).exists():
-                    if self.preview_path is None:
-                        self.add(frame.index, "skipped")
+                    if self.preview_path is None and self.publish is None:
+                        self.add(frame.index, "skipped", stamp=frame.stamp)
                         continue
                 waiting.append((frame, time.perf_counter()))
                 yield frame.left, frame.right
@@ -330,8 +455,11 @@ class _Run:
         for result in matcher.stream(pairs(), in_flight=in_flight, errors="yield"):
             frame, started = waiting.popleft()
             if isinstance(result, Exception):
-                self.add(frame.index, "failed", error=failure_message(result))
+                self.add(frame.index, "failed", error=failure_message(result),
+                         stamp=frame.stamp)
                 continue
+            if self.rectifier is not None:  # as csw match --rig: no source, no disparity
+                self.rectifier.invalidate(result.disparity)
             self.latency.append(time.perf_counter() - started)
             with signals_held():  # a frame's map, preview frame and entry: all or none
                 self.save(frame, result)
@@ -360,6 +488,12 @@ class _Run:
                     error = f"can't write {path}: {exc.strerror or exc}"
                     if exc.errno in DISK_FULL:
                         self.halt = f"frame {frame.index}: {error}"
+        if self.publish is not None and self.halt is None:
+            try:
+                self.publish(frame, result)
+            except OSError as exc:
+                self.halt = f"frame {frame.index}: can't write the bag " \
+                            f"({exc.strerror or exc})"
         if self.preview_path is not None and self.halt is None:
             try:
                 self.write_preview(frame, result.disparity)
@@ -371,7 +505,7 @@ class _Run:
             "notes": list(result.notes)}
         if self.each_range:
             fields["range"] = [s["dmin"], s["dmax"]]
-        self.add(frame.index, status, **fields)
+        self.add(frame.index, status, stamp=frame.stamp, **fields)
         if self.halt is not None:  # match_video keeps what is done and writes the summary
             raise VideoError(self.halt)
 
@@ -406,9 +540,11 @@ class _Run:
         self.canvas[:height] = picture
         return self.canvas
 
-    def add(self, index, status, **fields):
+    def add(self, index, status, stamp=None, **fields):
         entry = {"name": FRAME_NAME.format(index=index), "frame": index, "status": status,
                  **fields}
+        if stamp is not None:  # a log's frame: its stamp, exact, and as people read it
+            entry.update(stamp_ns=stamp, stamp=format_stamp(stamp))
         if self.out_dir is not None and status != "failed":
             entry["output"] = str(self.map_path(index))
         self.log.add(self.log.done, entry)  # in the order they come
@@ -426,6 +562,12 @@ class _Run:
                 reason = f"the preview video {self.preview_path} could not be written " \
                          f"({getattr(exc, 'strerror', None) or exc})"
                 self.stopped = f"{self.stopped}; {reason}" if self.stopped else reason
+        if self.publish is not None:
+            try:
+                self.publish.close()  # as the preview: what was matched, interrupted or not
+            except (OSError, LogError) as exc:
+                reason = f"the bag could not be written ({getattr(exc, 'strerror', None) or exc})"
+                self.stopped = f"{self.stopped}; {reason}" if self.stopped else reason
         latency = np.frombuffer(self.latency, np.float64) * 1e3
         extra = {
             "frames": self.log.done,
@@ -437,7 +579,7 @@ class _Run:
                            "p99": round(float(np.percentile(latency, 99)), 2)}
             if latency.size else None,
             "size": self.size, "range": self.range, "stream_notes": list(notes),
-            "stopped": self.stopped,
+            "stopped": self.stopped, **self.extra,
         }
         try:
             if self.summary is not None:
@@ -456,4 +598,6 @@ class _Run:
         self.bar.close()
         if self.preview is not None:
             self.preview.discard()
+        if self.publish is not None:
+            self.publish.discard()
         self.log.close()
