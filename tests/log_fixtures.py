@@ -56,14 +56,15 @@ def write_bag(path, pairs, rig=None, rect=None, prefix="/stereo", image="image_r
     writer = BagWriter(path)
     for side, stamps, k_, d_, which in (("left", left_stamps, "k1", "d1", 0),
                                         ("right", right_stamps, "k2", "d2", 1)):
-        for (pair, stamp) in zip(pairs, stamps, strict=False):
+        for k, (pair, stamp) in enumerate(zip(pairs, stamps, strict=False)):
             if stamp is None:
                 continue  # a dropped frame
             header = writer.header(stamp, f"{side}_optical")
-            writer.write(f"{prefix}/{side}/{image}", stamp, encode(writer, header,
-                                                                    pair[which]))
+            received = STAMP0 + k * PERIOD + 1_000_000  # the log's time: in order
+            writer.write(f"{prefix}/{side}/{image}", received, encode(writer, header,
+                                                                      pair[which]))
             if infos and rig is not None:
-                writer.write(f"{prefix}/{side}/camera_info", stamp,
+                writer.write(f"{prefix}/{side}/camera_info", received,
                              camera_info(writer, header, getattr(rig, k_),
                                          getattr(rig, d_), rect[which], rect[2 + which],
                                          rig.size))

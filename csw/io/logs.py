@@ -120,6 +120,13 @@ class Log:
             raise LogError(f"{self.path}: no such file or folder")
         self._source = _Kitti(self.path) if self.path.is_dir() and _is_kitti(self.path) \
             else _Bag(self.path)
+        try:
+            self._open(left_topic, right_topic, rig, tolerance, alpha, threads)
+        except BaseException:
+            self.close()
+            raise
+
+    def _open(self, left_topic, right_topic, rig, tolerance, alpha, threads):
         source = self._source
         self.left_topic, self.right_topic = source.choose(left_topic, right_topic)
         self.rectified = source.rectified
