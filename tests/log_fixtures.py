@@ -3,6 +3,8 @@ rig (as the rectification tests do), written with rosbags' writers (through
 csw.io.bags.BagWriter) as ROS 1 bags, ROS 2 SQLite bags or MCAP files, with a
 CameraInfo topic beside each image topic; and KITTI raw drives."""
 
+from pathlib import Path
+
 import numpy as np
 from rig_fixtures import random_rig, raw_from_rectified
 
@@ -92,3 +94,16 @@ def write_pngs(folder, pairs):
         write_png(folder / "left" / f"{k:06d}.png", left)
         write_png(folder / "right" / f"{k:06d}.png", right)
     return folder / "left", folder / "right"
+
+
+def read_bag(path):
+    """{topic: [(log time, message)]} of a bag, read with rosbags alone (not csw)."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    out = {}
+    with AnyReader([Path(path)], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as r:
+        for connection, time, raw in r.messages():
+            out.setdefault(connection.topic, []).append(
+                (time, r.deserialize(raw, connection.msgtype)))
+    return out

@@ -3,9 +3,18 @@ one line for each bad log."""
 
 import json
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
-from log_fixtures import DMAX, PERIOD, STAMP0, raw_scene, write_bag, write_rig_yaml
+from log_fixtures import (
+    DMAX,
+    PERIOD,
+    STAMP0,
+    raw_scene,
+    read_bag,
+    write_bag,
+    write_rig_yaml,
+)
 
 from csw.io.bags import image_message
 from csw_cli.main import cli
@@ -54,6 +63,20 @@ def test_match_a_bag_writes_maps_a_summary_and_a_bag_of_messages(tmp_path, scene
     assert [e["stamp"] for e in summary["pairs"]] == ["1700000000.000000000",
                                                       "1700000000.033333333"]
     assert (tmp_path / "out.bag").is_file()
+    # The cloud's points are csw cloud's on the same map, with the log's calibration.
+    from plyfile import PlyData
+
+    from csw.io.logs import read_log
+
+    c = read_log(bag).calibration
+    result = invoke("cloud", tmp_path / "maps" / "000001.pfm", "-o", tmp_path / "c.ply",
+                    "--focal", repr(c.focal), "--baseline", repr(c.baseline), "--cx",
+                    repr(c.cx), "--cy", repr(c.cy), "--doffs", repr(c.doffs))
+    assert result.exit_code == 0, result.output
+    vertex = PlyData.read(tmp_path / "c.ply")["vertex"]
+    want = np.stack([vertex["x"], vertex["y"], vertex["z"]], axis=1)
+    _, cloud = read_bag(tmp_path / "out.bag")["/stereo/points2"][1]
+    np.testing.assert_array_equal(cloud.data.view("<f4").reshape(-1, 4)[:, :3], want)
 
 
 def test_topics_by_name_a_tolerance_and_a_rig_from_files(tmp_path, scene):

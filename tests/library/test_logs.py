@@ -2,7 +2,6 @@
 built on the fly from synthetic scenes pushed through a known distorted rig."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,6 +11,7 @@ from log_fixtures import (
     STAMP0,
     camera_info,
     raw_scene,
+    read_bag,
     write_bag,
     write_pngs,
 )
@@ -28,19 +28,6 @@ pytest.importorskip("rosbags")
 @pytest.fixture(scope="module")
 def scene():
     return raw_scene(3)
-
-
-def read_bag(path):
-    """{topic: [(log time, message)]} of a bag, read with rosbags alone."""
-    from rosbags.highlevel import AnyReader
-    from rosbags.typesys import Stores, get_typestore
-
-    out = {}
-    with AnyReader([Path(path)], default_typestore=get_typestore(Stores.ROS2_HUMBLE)) as r:
-        for connection, time, raw in r.messages():
-            out.setdefault(connection.topic, []).append(
-                (time, r.deserialize(raw, connection.msgtype)))
-    return out
 
 
 # ---- pairing ---------------------------------------------------------------------------
@@ -211,6 +198,41 @@ def test_encodings_decode_to_the_gray_csw_reads_from_files(tmp_path, encoding):
     want = {"mono8": gray, "mono16": gray.astype(np.uint16) * 257}.get(encoding,
                                                                        csw.io.luma(rgb))
     np.testing.assert_array_equal(left, want)
+
+
+def test_a_bayer_topic_is_demosaiced_and_a_jpeg_topic_decoded(tmp_path):
+    import io
+
+    from PIL import Image
+
+    gray = np.random.default_rng(2).integers(0, 256, (24, 32)).astype(np.uint8)
+
+    def bayer(writer, header, image):
+        return writer.message("sensor_msgs/msg/Image", header=header, height=24, width=32,
+                              encoding="bayer_grbg8", is_bigendian=0, step=32,
+                              data=image.ravel())
+
+    bag = write_bag(tmp_path / "bayer.mcap", [(gray, gray)], image="image_rect",
+                    encode=bayer)
+    (left, _, _), = list(read_log(bag))
+    np.testing.assert_array_equal(left, csw.io.luma(demosaic(gray, "grbg")))
+
+    def jpeg(writer, header, image):
+        buffer = io.BytesIO()
+        Image.fromarray(np.dstack([image, image // 3, 255 - image])).save(buffer, "JPEG")
+        return writer.message("sensor_msgs/msg/CompressedImage", header=header,
+                              format="rgb8; jpeg compressed bgr8",
+                              data=np.frombuffer(buffer.getvalue(), np.uint8))
+
+    bag = write_bag(tmp_path / "jpeg.bag", [(gray, gray)], prefix="/cam",
+                    image="image_rect/compressed", encode=jpeg)
+    log = read_log(bag)
+    assert log.left_topic == "/cam/left/image_rect/compressed" and log.rectified
+    (left, _, _), = list(log)
+    buffer = io.BytesIO()
+    Image.fromarray(np.dstack([gray, gray // 3, 255 - gray])).save(buffer, "JPEG")
+    want = np.asarray(Image.open(io.BytesIO(buffer.getvalue())).convert("RGB"))
+    np.testing.assert_array_equal(left, csw.io.luma(want))
 
 
 def test_bayer_frames_are_demosaiced():
