@@ -10,6 +10,7 @@ closed as it stands and the summary marked interrupted.
 
 import errno
 import os
+import threading
 import time
 from array import array
 from collections import deque
@@ -23,7 +24,7 @@ from ..io import safety
 from ..io.formats import check_range, suffixes, write_disparity
 from ..io.logs import LogError, format_stamp
 from ..io.pictures import INVALID, TURBO
-from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoReader, VideoWriter
+from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoReader, VideoWriter, is_live
 from ..matching.disparity_range import check_bounds
 from ..matching.matcher import Matcher
 from .batch import PairLog, failure_message, signals_held, write_summary
@@ -43,6 +44,7 @@ class Frame:
     colour: np.ndarray | None = None
     error: Exception | None = None
     stamp: int | None = None  # a log's frame: the left header's stamp, nanoseconds
+    arrived: float | None = None  # time.perf_counter() when it was decoded
 
 
 def video_frames(left, right=None, sbs=False, colour=False):
@@ -105,7 +107,7 @@ def _frames(readers, sbs, notes):
             elif left.shape != first or right.shape != first:
                 raise VideoError(f"frame {index}: the size changed from {_size(first)} to "
                                  f"{_size(left.shape)}; csw matches a stream of one size")
-            yield Frame(index, left, right, rgb)
+            yield Frame(index, left, right, rgb, arrived=time.perf_counter())
     finally:
         for reader in readers:
             reader.close()
@@ -167,7 +169,7 @@ class DisparityColours:
 
 def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
                 overwrite=False, preview_video=None, preview_sbs=False, summary=None,
-                progress=True, in_flight=None, keep_range=True, config=None,
+                progress=True, in_flight=None, keep_range=True, latest=False, config=None,
                 **match_options):
     """Match every frame of two videos (frames paired by index), or of one side-by-side
     video (``sbs``: the left half is the left camera).
@@ -194,6 +196,10 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
         With a range "auto": find it on the first frame and keep it (True), or find it
         on every frame (False: each entry of the summary gives its frame's range, and
         the preview's colours span the widest range seen so far).
+    latest : bool
+        A live source ("-": standard input; /dev/video0: a V4L2 camera): decode in a
+        thread of its own and match the newest frame, dropping the ones that arrive
+        while the matcher is busy (the summary's "dropped") rather than fall behind.
     **match_options
         As for :func:`csw.match`; or ``config``, a csw.config.params.Config.
 
@@ -201,7 +207,8 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
     -------
     dict
         The summary: counts (ok, skipped, failed), frames, seconds, frames_per_second,
-        latency_ms (median and p99: from a frame read to its result), size, range,
+        latency_ms (median and p99: from a frame decoded, or arrived from a live source,
+        to its map written), size, range,
         stream_notes (one video ended first ...), stopped (why the stream ended early:
         a frame size that changed, a file damaged past a point; None), failed (the
         failed frames' entries), interrupted, and pairs (read from the summary file when
@@ -211,11 +218,96 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
     inputs = [Path(p) for p in (left, right) if p is not None]
     out_dir, summary = _check_outputs(config, inputs, out_dir, suffix, summary,
                                       preview_video=preview_video)
-    frames, info = video_frames(left, right, sbs, colour=preview_sbs)
+    if is_live(left):
+        frames = LiveFrames(lambda: video_frames(left, right, sbs, colour=preview_sbs),
+                            latest)
+        info = frames.info()
+        if latest:
+            info["summary"] = lambda: {"dropped": frames.dropped}
+    elif latest:
+        raise OptionError("latest", "latest is for a live source (- or /dev/videoN)")
+    else:
+        frames, info = video_frames(left, right, sbs, colour=preview_sbs)
     return _match_stream(frames, info, config, out_dir=out_dir, suffix=suffix,
                          overwrite=overwrite, summary=summary, preview_video=preview_video,
                          preview_sbs=preview_sbs, progress=progress, in_flight=in_flight,
                          keep_range=keep_range)
+
+
+# Frames a live source may run ahead of the matcher without --latest (then it waits).
+LIVE_QUEUE = 8
+
+
+class LiveFrames:
+    """A live source's frames, opened and decoded in a thread of their own, so that the
+    main thread only waits for them, in steps, and a Ctrl-C or SIGTERM lands at once
+    (raised inside PyAV's read of standard input, it would be dropped).  latest: keep
+    only the newest frame, a frame not taken before the next arrives dropped (``dropped``
+    counts them), so that a matcher slower than the source never falls behind it;
+    otherwise up to LIVE_QUEUE frames wait and then the source does."""
+
+    def __init__(self, open_frames, latest=False):
+        self.latest, self.dropped = latest, 0
+        self._ready = threading.Condition()
+        self._waiting = deque()
+        self._info = self._error = None
+        self._done = self._stopped = False
+        threading.Thread(target=self._read, args=(open_frames,), daemon=True,
+                         name="csw-live").start()
+
+    def _read(self, open_frames):
+        try:
+            frames, info = open_frames()
+            with self._ready:
+                self._info = info
+                self._ready.notify_all()
+            for frame in frames:
+                with self._ready:
+                    while not self.latest and len(self._waiting) >= LIVE_QUEUE and \
+                            not self._stopped:
+                        self._ready.wait(0.1)
+                    if self._stopped:
+                        return
+                    if self.latest:
+                        self.dropped += len(self._waiting)
+                        self._waiting.clear()
+                    self._waiting.append(frame)
+                    self._ready.notify_all()
+        except BaseException as exc:  # noqa: BLE001 (handed to the main thread, raised there)
+            self._error = exc
+        finally:
+            with self._ready:
+                self._done = True
+                self._ready.notify_all()
+
+    def _wait(self, ready):
+        with self._ready:
+            while not ready() and not self._done:
+                self._ready.wait(0.1)  # in steps: a Ctrl-C lands between them
+
+    def info(self):
+        """The source's info (as video_frames'), once it is open."""
+        self._wait(lambda: self._info is not None)
+        if self._info is None:
+            raise self._error or VideoError("the live source ended before its first frame")
+        return self._info
+
+    def __iter__(self):
+        try:
+            while True:
+                self._wait(lambda: self._waiting)
+                with self._ready:
+                    frame = self._waiting.popleft() if self._waiting else None
+                    self._ready.notify_all()
+                if frame is None:
+                    if self._error is not None:
+                        raise self._error
+                    return
+                yield frame
+        finally:
+            with self._ready:  # the reader stops at its next frame
+                self._stopped = True
+                self._ready.notify_all()
 
 
 def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None,
@@ -254,12 +346,13 @@ def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None
                                      "rectified frames (no camera_info); give --rig")
     if depth and bag_out is None:
         raise OptionError("depth", "depth images go into --bag-out: give it")
+    found = {"path": str(log.path), "left_topic": log.left_topic,
+             "right_topic": log.right_topic, "pairs": log.pairs,
+             "unpaired": {"left": log.unpaired[0], "right": log.unpaired[1]},
+             "rectified_by_csw": log.rectifier is not None,
+             "rig": log.rig.source if log.rig is not None else None}
     info = {"rate": log.rate, "frames": log.pairs, "notes": [], "size": tuple(log.size),
-            "log": {"path": str(log.path), "left_topic": log.left_topic,
-                    "right_topic": log.right_topic, "pairs": log.pairs,
-                    "unpaired": {"left": log.unpaired[0], "right": log.unpaired[1]},
-                    "rectified_by_csw": log.rectifier is not None,
-                    "rig": log.rig.source if log.rig is not None else None}}
+            "summary": lambda: {"log": found}}
     frames = (Frame(index, error=left, stamp=stamp) if isinstance(left, Exception) else
               Frame(index, left, right, colour, stamp=stamp)
               for index, left, right, colour, stamp in log.frames())
@@ -386,7 +479,7 @@ def _match_stream(frames, info, config, *, out_dir, suffix, overwrite, summary,
             publish.discard()
         raise
     run.rectifier, run.publish = rectifier, publish
-    run.extra = {key: info[key] for key in ("log",) if key in info}
+    run.extra = info.get("summary", dict)
     try:
         run.go(matcher, frames, in_flight)
     except (VideoError, LogError) as exc:  # the stream can't go on (a size changed, a
@@ -426,7 +519,8 @@ class _Run:
         self.stopped = None  # why the stream ended before its end, if it did
         self.rectifier = None  # raw frames rectified: their maps' sourceless pixels go
         self.publish = None  # a log's messages into a bag, per frame
-        self.extra = {}  # more of the summary (a log's topics and pairs)
+        self.extra = dict  # more of the summary: a log's topics and pairs, the frames a
+        # live source dropped
         self.halt = None  # a write that stops the run (a full disk), once the frame is logged
 
     def map_path(self, index):
@@ -449,7 +543,7 @@ class _Run:
                     if self.preview_path is None and self.publish is None:
                         self.add(frame.index, "skipped", stamp=frame.stamp)
                         continue
-                waiting.append((frame, time.perf_counter()))
+                waiting.append((frame, frame.arrived or time.perf_counter()))
                 yield frame.left, frame.right
 
         for result in matcher.stream(pairs(), in_flight=in_flight, errors="yield"):
@@ -460,9 +554,9 @@ class _Run:
                 continue
             if self.rectifier is not None:  # as csw match --rig: no source, no disparity
                 self.rectifier.invalidate(result.disparity)
-            self.latency.append(time.perf_counter() - started)
             with signals_held():  # a frame's map, preview frame and entry: all or none
                 self.save(frame, result)
+            self.latency.append(time.perf_counter() - started)  # arrival to map written
 
     def save(self, frame, result):
         s = result.settings
@@ -579,7 +673,7 @@ class _Run:
                            "p99": round(float(np.percentile(latency, 99)), 2)}
             if latency.size else None,
             "size": self.size, "range": self.range, "stream_notes": list(notes),
-            "stopped": self.stopped, **self.extra,
+            "stopped": self.stopped, **self.extra(),
         }
         try:
             if self.summary is not None:

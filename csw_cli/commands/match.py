@@ -83,7 +83,8 @@ MATCH_HELP = opt.sectioned(
                                 "focal", "baseline", "cx", "cy", "doffs", "units",
                                 "calib_units"]),
     ("Raw pairs from a calibrated rig", ["rigs", "alpha", "rectified_left", "frame"]),
-    ("Video", ["sbs", "preview_video", "preview_sbs", "range_each_frame"]),
+    ("Video and live sources", ["sbs", "preview_video", "preview_sbs", "range_each_frame",
+                                "latest"]),
     ("Robot logs (ROS 1/2 bags, MCAP, KITTI raw drives)",
      ["left_topic", "right_topic", "stamp_tolerance", "bag_out", "bag_depth"]),
     ("Many pairs, big pairs and clusters", ["output_dir", "manifest", "suffix",
@@ -189,6 +190,10 @@ MATCH_HELP = opt.sectioned(
                    "every frame rather than on the first and keeping it, for a drive whose "
                    "depths change (a coarse match a frame: about a tenth more time at "
                    "640x480, twice the time at 320x240).")
+@click.option("--latest", is_flag=True,
+              help="A live source (- for standard input, /dev/video0 for a V4L2 camera, "
+                   "with --sbs): match the newest frame, dropping those that come while "
+                   "matching, rather than fall behind.")
 @click.option("--left-topic", help="Log: the left image topic [default: a .../left/... "
                                    "image topic with a .../right/... twin, rectified "
                                    "ones first].")
@@ -210,7 +215,7 @@ MATCH_HELP = opt.sectioned(
 def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, summary, workers,
           scheduler, memory_limit, preview, cost_map, confidence, depth, cloud,
           depth_preview, max_depth, units, rigs, alpha, rectified_left, frame, sbs,
-          preview_video, preview_sbs, range_each_frame, left_topic, right_topic,
+          preview_video, preview_sbs, range_each_frame, latest, left_topic, right_topic,
           stamp_tolerance, bag_out, bag_depth, **_):
     """Match LEFT against RIGHT (left is the reference) and write the disparity map.
 
@@ -227,7 +232,9 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
 
     Video: give two videos (frames paired by index) or one side-by-side video with
     --sbs, and --output-dir (a map per frame, NNNNNN.pfm) or --preview-video or both.
-    Frames are matched side by side on every core while the next are decoded.
+    Frames are matched side by side on every core while the next are decoded.  A live
+    side-by-side source: a V4L2 camera (/dev/video0) or a stream on standard input (-),
+    with --sbs, and --latest to drop frames rather than fall behind.
 
     Robot log: give one ROS 1 bag, ROS 2 bag (folder, .db3 or .mcap) or KITTI raw
     drive folder, and --output-dir and/or --bag-out.  Frames are paired by header
@@ -245,10 +252,11 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
       csw match raw_l.png raw_r.png --rig stereo.yml -o disp.pfm --cloud c.ply
       csw match drive.mp4 --sbs -O maps/ --preview-video view.mp4 --dmax 64
       csw match drive.mcap -O maps/ --bag-out stereo.mcap --dmax 64
+      ffmpeg -i cam.mkv -f mjpeg - | csw match - --sbs -O maps/ --latest --dmax 64
     """
     from csw.config import params
     from csw.io.logs import is_log
-    from csw.io.video import is_video
+    from csw.io.video import is_live, is_video
 
     settings = opt.given(ctx, MATCH_OPTIONS)
     log_only = [name for name in LOG_ONLY if ctx.get_parameter_source(name).name != "DEFAULT"]
@@ -258,9 +266,16 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     if log_only:
         raise click.UsageError(f"--{log_only[0].replace('_', '-')} is for a log (a bag, "
                                ".mcap, .db3 or a KITTI raw drive)")
+    live = left is not None and is_live(left)
+    if live and not sbs:
+        raise click.UsageError(f"{left} is a live source: give --sbs (one side-by-side "
+                               "camera or stream)")
+    if latest and not live:
+        raise click.UsageError("--latest is for a live source (- or /dev/videoN, with "
+                               "--sbs)")
     if sbs or (left is not None and is_video(left)):
         return match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
-                           preview_video, preview_sbs, range_each_frame, settings)
+                           preview_video, preview_sbs, range_each_frame, settings, latest)
     if preview_video or preview_sbs or range_each_frame:
         raise click.UsageError("--preview-video, --preview-sbs and --range-each-frame are "
                                "for video input")
@@ -395,7 +410,7 @@ NOT_FOR_VIDEO = ("output", "manifest", "preview", "cost_map", "confidence", "dep
 
 
 def match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
-                preview_video, preview_sbs, range_each_frame, settings):
+                preview_video, preview_sbs, range_each_frame, settings, latest=False):
     """The video form: two videos or one side-by-side video, a map per frame into
     OUTPUT_DIR and/or a preview video."""
     from csw.scale.stream import match_video as run
@@ -422,10 +437,13 @@ def match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
             report = run(left, right, sbs=sbs, out_dir=output_dir, suffix=suffix,
                          overwrite=overwrite, preview_video=preview_video,
                          preview_sbs=preview_sbs, summary=summary,
-                         keep_range=not range_each_frame, config=config)
+                         keep_range=not range_each_frame, latest=latest, config=config)
     except OSError as exc:
         raise write_error(exc) from None
     report_stream(report, output_dir, summary, preview_video, range_each_frame)
+    if latest:
+        click.echo(f"csw: {report['dropped']} frame(s) dropped to keep up (--latest)",
+                   err=True)
     counts = report["counts"]
     if counts["failed"] or report["stopped"]:
         raise SystemExit(1)
