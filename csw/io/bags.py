@@ -69,8 +69,9 @@ class BagWriter:
         """A message of ``msgtype`` ("sensor_msgs/msg/Image") from fields named in lower
         case (ROS 1's upper-case names, D K R P T, are found too; a Header's seq is 0)."""
         cls = self.typestore.types[msgtype]
+        # Longer upper-case names are a type's constants (PointField.FLOAT32), not fields.
         names = {name.lower(): name for name in cls.__dataclass_fields__
-                 if name != "__msgtype__" and not name.isupper() or name in "DKRPT"}
+                 if name != "__msgtype__" and (not name.isupper() or len(name) == 1)}
         values = {names[key.lower()]: value for key, value in fields.items()}
         if msgtype == "std_msgs/msg/Header" and "seq" in names:
             values.setdefault("seq", 0)

@@ -14,6 +14,7 @@ import threading
 import time
 from array import array
 from collections import deque
+from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -336,8 +337,12 @@ def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None
     from ..io.logs import Log
 
     config = _config(config, match_options)
-    if isinstance(log, (str, os.PathLike)):
-        log = Log(log, colour=bag_out is not None or preview_sbs)
+    if isinstance(log, (str, os.PathLike)):  # opened here: closed here
+        with closing(Log(log, colour=bag_out is not None or preview_sbs)) as opened:
+            return match_log(opened, out_dir=out_dir, suffix=suffix, overwrite=overwrite,
+                             bag_out=bag_out, depth=depth, preview_video=preview_video,
+                             preview_sbs=preview_sbs, summary=summary, progress=progress,
+                             in_flight=in_flight, keep_range=keep_range, config=config)
     inputs = [log.path, *(log.rig.paths if log.rig is not None else ())]
     out_dir, summary = _check_outputs(config, inputs, out_dir, suffix, summary,
                                       preview_video=preview_video, bag_out=bag_out)
