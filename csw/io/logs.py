@@ -538,7 +538,8 @@ def _decode_compressed(msg, fmt, colour, where):
             else:
                 rgb = np.asarray(image.convert("RGB"))
                 gray = luma(rgb)
-    except (UnidentifiedImageError, OSError, SyntaxError) as exc:
+    except (UnidentifiedImageError, Image.DecompressionBombError, OSError,
+            SyntaxError) as exc:
         raise LogError(f"{where}the compressed frame can't be decoded ({exc})") from None
     if colour and rgb is None:
         rgb = np.repeat(gray[..., None], 3, axis=2)

@@ -167,7 +167,7 @@ MATCH_HELP = opt.sectioned(
                    "first (OpenCV YAML/XML, ROS camera_info left then right, KITTI "
                    "calib_cam_to_cam.txt, Kalibr camchain; repeat for two files). The "
                    "map is on the rectified left image's grid; the rig gives depth and "
-                   "clouds their calibration.")
+                   "clouds their calibration. A log: replaces its camera_info.")
 @click.option("--alpha", type=click.FloatRange(-1, 1), default=0.0, show_default=True,
               help="With --rig: 0 keeps only pixels with a source (no black border), 1 "
                    "every raw pixel.")
