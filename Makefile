@@ -4,7 +4,7 @@ PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
 .PHONY: run test test-quick test-newest-numba coverage bench bench-batch bench-peers bench-scale bench-startup bench-stream tradeoff quality first-photo \
-	bench-rectify bench-calibrate bench-sgm lint \
+	bench-rectify bench-calibrate bench-sgm bench-logs lint \
 	format clean
 
 $(PY):
@@ -95,6 +95,11 @@ bench-sgm: $(VENV)/.installed-dev
 # Three photograph-like pairs no test uses, matched with no range given: reports/first-photo.md
 first-photo: $(VENV)/.installed-dev
 	$(PY) scripts/first_photo.py
+
+# Robot logs: reading and decoding from MCAP, a 300-frame log against Matcher.stream in
+# memory, memory over 10,000 frames: reports/logs.md
+bench-logs: $(VENV)/.installed-dev
+	$(PY) scripts/logs_report.py
 
 lint: $(VENV)/.installed-dev
 	scripts/lint.sh

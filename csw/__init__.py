@@ -49,12 +49,14 @@ _PUBLIC = {
     "load_dataset": ("data.datasets", "load"),
     "match": ("matching.matcher", "match"),
     "match_files": ("matching.files", "match_files"),
+    "match_log": ("scale.stream", "match_log"),
     "match_many": ("scale.batch", "match_many"),
     "match_tiled": ("scale.tiled.run", "match_tiled"),
     "point_cloud": ("camera.geometry", "point_cloud"),
     "read_calibration": ("camera.calibration", "read_calibration"),
     "read_disparity": ("io.formats", "read_disparity"),
     "read_image": ("io.images", "read_image"),
+    "read_log": ("io.logs", "read_log"),
     "read_rig": ("camera.rig", "read_rig"),
     "rectify_files": ("camera.rectify", "rectify_files"),
     "run_bench": ("eval.bench", "run_bench"),
@@ -84,10 +86,12 @@ if TYPE_CHECKING:  # what the table above imports on first use, for readers and 
     from .eval.sweep import sweep_rows
     from .io.formats import read_disparity, write_disparity
     from .io.images import ImageError, read_image
+    from .io.logs import read_log
     from .matching.files import match_files
     from .matching.matcher import Matcher, Result, match
     from .matching.setup import compile_kernels
     from .scale.batch import Job, jobs_from_folders, jobs_from_manifest, match_many
+    from .scale.stream import match_log
     from .scale.tiled.run import TiledResult, match_tiled
 
 

@@ -19,6 +19,7 @@ COMMANDS = {
     "rectify": ("rectify", "rectify", "Undistort and rectify a raw pair from a calibrated "
                                       "rig."),
     "calibrate": ("calibrate", "calibrate", "Calibrate a stereo rig from chessboard pairs."),
+    "info": ("info", "info", "List a robot log's image topics (ROS bags, MCAP, KITTI)."),
     "synth": ("synth", "synth", "Write a synthetic stereo pair with exact ground truth."),
     "score": ("score", "score", "Score a disparity map against ground truth."),
     # ... then benchmarks, experiments and set-up.
@@ -30,7 +31,7 @@ COMMANDS = {
                                        "Docker)."),
 }
 # Listed as "Commands"; the rest after them.
-FIRST = ["match", "depth", "cloud", "rectify", "calibrate", "synth", "score"]
+FIRST = ["match", "depth", "cloud", "rectify", "calibrate", "info", "synth", "score"]
 
 
 class LazyGroup(click.Group):

@@ -318,7 +318,14 @@ ROS_MODELS = {"plumb_bob": "plumb_bob", "rational_polynomial": "rational_polynom
 
 
 def _ros(texts, source):
-    cams = [_yaml(text, source) for text in texts]
+    return rig_from_camera_info([_yaml(text, source) for text in texts], source)
+
+
+def rig_from_camera_info(cams, source):
+    """The Rig of a left and a right camera_info, each a mapping with the keys of ROS's
+    YAML files (camera_matrix, distortion_coefficients, rectification_matrix,
+    projection_matrix: lists or {data: [...]}; image_width, image_height,
+    distortion_model): read from files, or from a log's CameraInfo messages."""
     if not all(isinstance(c, dict) for c in cams):
         raise ValueError(f"{source}: a camera_info must be a YAML mapping")
     k1, k2 = (_field(c, "camera_matrix", source, (3, 3)) for c in cams)

@@ -29,6 +29,11 @@ VIDEO_SUFFIXES = (".mp4", ".mkv", ".avi", ".mov", ".webm", ".m4v", ".mpg", ".mpe
 WRITTEN_SUFFIXES = (".mp4", ".mkv", ".mov", ".avi")  # what a preview video may be
 
 
+# A live source is probed on its first 32 KB only: FFmpeg's defaults (1 MB to find the
+# format, then 5 MB or 5 s of the stream) hold the first frame back that long, or to the
+# end of a short stream.
+LIVE_PROBE = {"probesize": "32768", "formatprobesize": "32768", "analyzeduration": "0"}
+
 # The previews' bit rate: maps are smooth, and half a bit a pixel keeps their edges.
 BITS_PER_PIXEL = 0.5
 
@@ -40,6 +45,13 @@ class VideoError(ImageError):
 def is_video(path):
     """Whether ``path`` names a video file by its suffix."""
     return Path(path).suffix.lower() in VIDEO_SUFFIXES
+
+
+def is_live(path):
+    """Whether ``path`` is a live source: "-" (a stream on standard input, in any
+    container FFmpeg finds by probing: MJPEG, y4m, MPEG-TS, NUT ...) or a V4L2 camera
+    (/dev/video0)."""
+    return str(path) == "-" or str(path).startswith("/dev/video")
 
 
 def _av():
@@ -69,14 +81,23 @@ class VideoReader:
     def __init__(self, path, colour=False):
         av = _av()
         self.path, self.colour = Path(path), colour
-        safety.protect(self.path)
-        safety.check_input(self.path, "a video file", VideoError)
-        if not self.path.exists():
-            raise VideoError(f"{self.path}: no such file")
-        if self.path.is_dir():
-            raise VideoError(f"{self.path}: is a directory, not a video")
+        self.live = is_live(path)
+        if not self.live:  # a camera is a device and standard input a pipe, on purpose
+            safety.protect(self.path)
+            safety.check_input(self.path, "a video file", VideoError)
+            if not self.path.exists():
+                raise VideoError(f"{self.path}: no such file")
+            if self.path.is_dir():
+                raise VideoError(f"{self.path}: is a directory, not a video")
         try:
-            self._container = av.open(str(self.path), "r")
+            if str(path) == "-":  # FFmpeg reads the descriptor itself: no Python file
+                # object, whose lock a reading thread would hold when the process exits
+                self._container = av.open("pipe:0", "r", options=LIVE_PROBE)
+            elif self.live:  # PyAV's V4L2 input
+                self._container = av.open(str(self.path), "r", format="v4l2",
+                                          options=LIVE_PROBE)
+            else:
+                self._container = av.open(str(self.path), "r")
             streams = self._container.streams.video
         except av.error.FFmpegError as exc:
             raise VideoError(f"{self.path}: not a readable video ({_reason(exc)})") from None
@@ -120,7 +141,7 @@ class VideoReader:
             if index == 0:  # the run stops, saying so (a header's count can be a guess:
                 # only an empty file is sure to be wrong)
                 raise VideoError(f"{self.path}: holds no frames")
-            if self._container.format.name == "yuv4mpegpipe" and \
+            if self._container.format.name == "yuv4mpegpipe" and not self.live and \
                     os.path.getsize(self.path) > end:  # raw frames end to end: the demuxer
                 # drops a last frame that the file cuts short, without a word
                 raise VideoError(f"{self.path}: the file ends inside frame {index} (cut "

@@ -10,9 +10,11 @@ closed as it stands and the summary marked interrupted.
 
 import errno
 import os
+import threading
 import time
 from array import array
 from collections import deque
+from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,8 +23,9 @@ import numpy as np
 from ..config.params import OptionError, resolve
 from ..io import safety
 from ..io.formats import check_range, suffixes, write_disparity
+from ..io.logs import LogError, format_stamp
 from ..io.pictures import INVALID, TURBO
-from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoReader, VideoWriter
+from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoReader, VideoWriter, is_live
 from ..matching.disparity_range import check_bounds
 from ..matching.matcher import Matcher
 from .batch import PairLog, failure_message, signals_held, write_summary
@@ -41,6 +44,8 @@ class Frame:
     right: np.ndarray | None = None
     colour: np.ndarray | None = None
     error: Exception | None = None
+    stamp: int | None = None  # a log's frame: the left header's stamp, nanoseconds
+    arrived: float | None = None  # time.perf_counter() when it was decoded
 
 
 def video_frames(left, right=None, sbs=False, colour=False):
@@ -103,7 +108,7 @@ def _frames(readers, sbs, notes):
             elif left.shape != first or right.shape != first:
                 raise VideoError(f"frame {index}: the size changed from {_size(first)} to "
                                  f"{_size(left.shape)}; csw matches a stream of one size")
-            yield Frame(index, left, right, rgb)
+            yield Frame(index, left, right, rgb, arrived=time.perf_counter())
     finally:
         for reader in readers:
             reader.close()
@@ -165,7 +170,7 @@ class DisparityColours:
 
 def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
                 overwrite=False, preview_video=None, preview_sbs=False, summary=None,
-                progress=True, in_flight=None, keep_range=True, config=None,
+                progress=True, in_flight=None, keep_range=True, latest=False, config=None,
                 **match_options):
     """Match every frame of two videos (frames paired by index), or of one side-by-side
     video (``sbs``: the left half is the left camera).
@@ -192,6 +197,10 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
         With a range "auto": find it on the first frame and keep it (True), or find it
         on every frame (False: each entry of the summary gives its frame's range, and
         the preview's colours span the widest range seen so far).
+    latest : bool
+        A live source ("-": standard input; /dev/video0: a V4L2 camera): decode in a
+        thread of its own and match the newest frame, dropping the ones that arrive
+        while the matcher is busy (the summary's "dropped") rather than fall behind.
     **match_options
         As for :func:`csw.match`; or ``config``, a csw.config.params.Config.
 
@@ -199,16 +208,207 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
     -------
     dict
         The summary: counts (ok, skipped, failed), frames, seconds, frames_per_second,
-        latency_ms (median and p99: from a frame read to its result), size, range,
+        latency_ms (median and p99: from a frame decoded, or arrived from a live source,
+        to its map written), size, range,
         stream_notes (one video ended first ...), stopped (why the stream ended early:
         a frame size that changed, a file damaged past a point; None), failed (the
         failed frames' entries), interrupted, and pairs (read from the summary file when
         asked for; an empty list without one).
     """
+    config = _config(config, match_options)
+    inputs = [Path(p) for p in (left, right) if p is not None]
+    out_dir, summary = _check_outputs(config, inputs, out_dir, suffix, summary,
+                                      preview_video=preview_video)
+    if is_live(left):
+        frames = LiveFrames(lambda: video_frames(left, right, sbs, colour=preview_sbs),
+                            latest)
+        info = frames.info()
+        if latest:
+            info["summary"] = lambda: {"dropped": frames.dropped}
+    elif latest:
+        raise OptionError("latest", "latest is for a live source (- or /dev/videoN)")
+    else:
+        frames, info = video_frames(left, right, sbs, colour=preview_sbs)
+    return _match_stream(frames, info, config, out_dir=out_dir, suffix=suffix,
+                         overwrite=overwrite, summary=summary, preview_video=preview_video,
+                         preview_sbs=preview_sbs, progress=progress, in_flight=in_flight,
+                         keep_range=keep_range)
+
+
+# Frames a live source may run ahead of the matcher without --latest (then it waits).
+LIVE_QUEUE = 8
+
+
+class LiveFrames:
+    """A live source's frames, opened and decoded in a thread of their own, so that the
+    main thread only waits for them, in steps, and a Ctrl-C or SIGTERM lands at once
+    (raised inside PyAV's read of standard input, it would be dropped).  latest: keep
+    only the newest frame, a frame not taken before the next arrives dropped (``dropped``
+    counts them), so that a matcher slower than the source never falls behind it;
+    otherwise up to LIVE_QUEUE frames wait and then the source does."""
+
+    def __init__(self, open_frames, latest=False):
+        self.latest, self.dropped = latest, 0
+        self._ready = threading.Condition()
+        self._waiting = deque()
+        self._info = self._error = None
+        self._done = self._stopped = False
+        threading.Thread(target=self._read, args=(open_frames,), daemon=True,
+                         name="csw-live").start()
+
+    def _read(self, open_frames):
+        try:
+            frames, info = open_frames()
+            with self._ready:
+                self._info = info
+                self._ready.notify_all()
+            for frame in frames:
+                with self._ready:
+                    while not self.latest and len(self._waiting) >= LIVE_QUEUE and \
+                            not self._stopped:
+                        self._ready.wait(0.1)
+                    if self._stopped:
+                        return
+                    if self.latest:
+                        self.dropped += len(self._waiting)
+                        self._waiting.clear()
+                    self._waiting.append(frame)
+                    self._ready.notify_all()
+        except BaseException as exc:  # noqa: BLE001 (handed to the main thread, raised there)
+            self._error = exc
+        finally:
+            with self._ready:
+                self._done = True
+                self._ready.notify_all()
+
+    def _wait(self, ready):
+        with self._ready:
+            while not ready() and not self._done:
+                self._ready.wait(0.1)  # in steps: a Ctrl-C lands between them
+
+    def info(self):
+        """The source's info (as video_frames'), once it is open."""
+        self._wait(lambda: self._info is not None)
+        if self._info is None:
+            raise self._error or VideoError("the live source ended before its first frame")
+        return self._info
+
+    def __iter__(self):
+        try:
+            while True:
+                self._wait(lambda: self._waiting)
+                with self._ready:
+                    frame = self._waiting.popleft() if self._waiting else None
+                    self._ready.notify_all()
+                if frame is None:
+                    if self._error is not None:
+                        raise self._error
+                    return
+                yield frame
+        finally:
+            with self._ready:  # the reader stops at its next frame
+                self._stopped = True
+                self._ready.notify_all()
+
+
+def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None,
+              depth=False, preview_video=None, preview_sbs=False, summary=None,
+              progress=True, in_flight=None, keep_range=True, config=None,
+              **match_options):
+    """Match every stereo frame of a robot's log: a ROS 1 bag, a ROS 2 bag (folder,
+    .db3 or .mcap) or a KITTI raw drive, as :func:`match_video` matches a video.
+
+    log : path or csw.io.logs.Log
+        The log, or one opened by :func:`csw.read_log` (its topics, rig, tolerance).
+    out_dir, suffix, overwrite, preview_video, preview_sbs, summary, progress,
+    in_flight, keep_range, **match_options
+        As for :func:`match_video`; each summary entry holds its frame's ``stamp_ns``.
+    bag_out : path, optional
+        A new bag (.bag: ROS 1; .mcap; else a ROS 2 bag folder) with each frame's
+        stereo_msgs/DisparityImage on NS/disparity and sensor_msgs/PointCloud2 on
+        NS/points2 (NS: the topics' namespace, as stereo_image_proc's), with ``depth``
+        a 32FC1 depth Image in metres on NS/depth: each with the frame's stamp and the
+        left frames' frame id (csw.io.bags).
+
+    Returns the summary, as :func:`match_video`'s, with "log": the topics, pairs,
+    unpaired frames (left, right), whether csw rectified the frames, and with which
+    rig.
+    """
+    from ..io.logs import Log
+
+    config = _config(config, match_options)
+    if isinstance(log, (str, os.PathLike)):  # opened here: closed here
+        with closing(Log(log, colour=bag_out is not None or preview_sbs)) as opened:
+            return match_log(opened, out_dir=out_dir, suffix=suffix, overwrite=overwrite,
+                             bag_out=bag_out, depth=depth, preview_video=preview_video,
+                             preview_sbs=preview_sbs, summary=summary, progress=progress,
+                             in_flight=in_flight, keep_range=keep_range, config=config)
+    inputs = [log.path, *(log.rig.paths if log.rig is not None else ())]
+    out_dir, summary = _check_outputs(config, inputs, out_dir, suffix, summary,
+                                      preview_video=preview_video, bag_out=bag_out)
+    if bag_out is not None and log.calibration is None:
+        raise OptionError("bag_out", f"{log.path}: the log gives no calibration for its "
+                                     "rectified frames (no camera_info); give --rig")
+    if depth and bag_out is None:
+        raise OptionError("depth", "depth images go into --bag-out: give it")
+    found = {"path": str(log.path), "left_topic": log.left_topic,
+             "right_topic": log.right_topic, "pairs": log.pairs,
+             "unpaired": {"left": log.unpaired[0], "right": log.unpaired[1]},
+             "rectified_by_csw": log.rectifier is not None,
+             "rig": log.rig.source if log.rig is not None else None}
+    info = {"rate": log.rate, "frames": log.pairs, "notes": [], "size": tuple(log.size),
+            "summary": lambda: {"log": found}}
+    frames = (Frame(index, error=left, stamp=stamp) if isinstance(left, Exception) else
+              Frame(index, left, right, colour, stamp=stamp)
+              for index, left, right, colour, stamp in log.frames())
+    publish = None
+    if bag_out is not None:
+        from ..io.bags import BagWriter
+
+        publish = _Publisher(BagWriter(bag_out), log, config, depth)
+    return _match_stream(frames, info, config, out_dir=out_dir, suffix=suffix,
+                         overwrite=overwrite, summary=summary, preview_video=preview_video,
+                         preview_sbs=preview_sbs, progress=progress, in_flight=in_flight,
+                         keep_range=keep_range, rectifier=log.rectifier, publish=publish)
+
+
+class _Publisher:
+    """A log's frames' messages into a bag (csw.io.bags), on the topics' namespace."""
+
+    def __init__(self, writer, log, config, depth):
+        self.writer, self.depth = writer, depth
+        self.calibration, self.frame_id = log.calibration, log.frame_id
+        self.namespace = log.output_topics()
+
+    def __call__(self, frame, result):
+        from ..io.bags import stereo_messages
+
+        colour = frame.colour if frame.colour is not None else frame.left
+        settings = dict(result.settings)
+        for name, msg in stereo_messages(self.writer, frame.stamp, self.frame_id,
+                                         result.disparity, self.calibration, settings,
+                                         colour, self.depth):
+            self.writer.write(f"{self.namespace}/{name}", frame.stamp, msg)
+
+    def close(self):
+        return self.writer.close()
+
+    def discard(self):
+        self.writer.discard()
+
+
+def _config(config, match_options):
     if config is not None and match_options:
-        raise TypeError("give match_video its options or a resolved config, not both")
-    config = resolve(**match_options) if config is None else config
-    if out_dir is None and preview_video is None:
+        raise TypeError("give a stream its options or a resolved config, not both")
+    return resolve(**match_options) if config is None else config
+
+
+def _check_outputs(config, inputs, out_dir, suffix, summary, preview_video=None,
+                   bag_out=None):
+    """Before any frame is read: the stream's outputs (out_dir, summary, preview_video,
+    bag_out) checked against each other and the ``inputs``.  Returns (out_dir,
+    summary)."""
+    if out_dir is None and preview_video is None and bag_out is None:
         raise OptionError("output_dir", "give --output-dir for the maps, --preview-video, "
                                         "or both")
     if suffix not in suffixes("whole"):
@@ -219,14 +419,13 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
             check_range(f"map{suffix}", config.dmax, config.dmin)
         except ValueError as exc:
             raise OptionError("dmax", str(exc)) from None
-    inputs = [Path(p) for p in (left, right) if p is not None]
     for path in inputs:
         safety.protect(path)
     out_dir = Path(out_dir) if out_dir is not None else None
     if out_dir is not None and out_dir.exists() and not out_dir.is_dir():
         raise OptionError("output_dir", f"{out_dir} exists and is not a folder")
     summary = Path(summary) if summary else (out_dir / "summary.json" if out_dir else None)
-    checked = {"preview_video": preview_video, "summary": summary}
+    checked = {"preview_video": preview_video, "summary": summary, "bag_out": bag_out}
     real_inputs = {os.path.realpath(p): str(p) for p in inputs}
     for option, path in checked.items():
         if path is None:
@@ -238,39 +437,59 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
         if option == "preview_video" and Path(path).suffix.lower() not in WRITTEN_SUFFIXES:
             raise OptionError(option, f"{path} is not named as a video; use .mp4, .mkv, "
                                       ".mov or .avi")
-        safety.check_target(path, option)
+        if option == "bag_out" and os.path.lexists(path):
+            raise OptionError(option, f"{path} exists; csw writes a new bag, never over "
+                                      "one (remove it or name another)")
+        safety.check_target(path, option, folder_ok=option == "bag_out")
         folder = Path(path).parent
         if folder != out_dir and not folder.is_dir():
             raise OptionError(option, f"folder {str(folder)!r} does not exist; create it "
                                       "first")
-    if preview_video is not None and summary is not None and \
-            Path(preview_video).resolve() == Path(summary).resolve():
-        raise OptionError("preview_video", "the preview video and the summary are one file")
-    frames, info = video_frames(left, right, sbs, colour=preview_sbs)
-    check_bounds(config, info["size"][0])  # from the header: before a frame is decoded
-    if out_dir is not None:
-        try:
-            out_dir.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise OptionError("output_dir", f"can't create the folder {out_dir} "
-                                            f"({exc.strerror or exc})") from None
-    for option, folder in (("output_dir", out_dir), ("summary", summary and summary.parent),
-                           ("preview_video", preview_video and Path(preview_video).parent)):
-        if folder is not None and not os.access(folder or ".", os.W_OK):  # before decoding
-            raise OptionError(option, f"the folder {folder} is not writable")
-    matcher = Matcher(config=config, keep_range=keep_range)
+    named = [os.path.realpath(p) for p in checked.values() if p is not None]
+    if len(set(named)) < len(named):
+        raise OptionError("preview_video", "two outputs (preview video, summary, bag) are "
+                                           "one file")
+    return out_dir, summary
+
+
+def _match_stream(frames, info, config, *, out_dir, suffix, overwrite, summary,
+                  preview_video, preview_sbs, progress, in_flight, keep_range,
+                  rectifier=None, publish=None):
+    """The run shared by videos and logs: ``frames`` (Frame) matched through
+    Matcher.stream into the outputs checked by _check_outputs."""
     try:
-        run = _Run(out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
-                   info["rate"] or 30.0, progress, info["frames"] or None,
-                   each_range=not (keep_range or config.range_known))
-    except OSError as exc:  # its log beside the summary: the folder can't be written
-        folder = summary.parent if summary is not None else Path(".")
-        raise OptionError("output_dir", f"can't write in {folder} "
-                                        f"({exc.strerror or exc})") from None
+        check_bounds(config, info["size"][0])  # from the header: before a frame is decoded
+        if out_dir is not None:
+            try:
+                out_dir.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise OptionError("output_dir", f"can't create the folder {out_dir} "
+                                                f"({exc.strerror or exc})") from None
+        for option, folder in (("output_dir", out_dir),
+                               ("summary", summary and summary.parent),
+                               ("preview_video", preview_video and Path(preview_video).parent)):
+            if folder is not None and not os.access(folder or ".", os.W_OK):  # before decoding
+                raise OptionError(option, f"the folder {folder} is not writable")
+        matcher = Matcher(config=config, keep_range=keep_range)
+        try:
+            run = _Run(out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
+                       info["rate"] or 30.0, progress, info["frames"] or None,
+                       each_range=not (keep_range or config.range_known))
+        except OSError as exc:  # its log beside the summary: the folder can't be written
+            folder = summary.parent if summary is not None else Path(".")
+            raise OptionError("output_dir", f"can't write in {folder} "
+                                            f"({exc.strerror or exc})") from None
+    except BaseException:
+        if publish is not None:
+            publish.discard()
+        raise
+    run.rectifier, run.publish = rectifier, publish
+    run.extra = info.get("summary", dict)
     try:
         run.go(matcher, frames, in_flight)
-    except VideoError as exc:  # the stream can't go on (a size changed, a damaged file):
-        run.stopped = str(exc)  # what is done is kept, and the summary says why it ended
+    except (VideoError, LogError) as exc:  # the stream can't go on (a size changed, a
+        run.stopped = str(exc)  # damaged file): what is done is kept, and the summary
+        # says why it ended
     except KeyboardInterrupt:
         with signals_held():  # a second Ctrl-C waits until the summary is written
             run.finish(config, info["notes"], interrupted=True)
@@ -303,6 +522,10 @@ class _Run:
         self.bar = progress_bar(total, "csw match", "frame", progress is True)
         self.total = total
         self.stopped = None  # why the stream ended before its end, if it did
+        self.rectifier = None  # raw frames rectified: their maps' sourceless pixels go
+        self.publish = None  # a log's messages into a bag, per frame
+        self.extra = dict  # more of the summary: a log's topics and pairs, the frames a
+        # live source dropped
         self.halt = None  # a write that stops the run (a full disk), once the frame is logged
 
     def map_path(self, index):
@@ -315,26 +538,30 @@ class _Run:
             for frame in frames:
                 if frame.error is not None:
                     with signals_held():
-                        self.add(frame.index, "failed", error=failure_message(frame.error))
+                        self.add(frame.index, "failed", error=failure_message(frame.error),
+                                 stamp=frame.stamp)
                         if self.preview is not None:  # the video's timing: a black frame
                             self.write_preview(frame, None)
                     continue
                 if self.out_dir is not None and not self.overwrite and \
                         self.map_path(frame.index).exists():
-                    if self.preview_path is None:
-                        self.add(frame.index, "skipped")
+                    if self.preview_path is None and self.publish is None:
+                        self.add(frame.index, "skipped", stamp=frame.stamp)
                         continue
-                waiting.append((frame, time.perf_counter()))
+                waiting.append((frame, frame.arrived or time.perf_counter()))
                 yield frame.left, frame.right
 
         for result in matcher.stream(pairs(), in_flight=in_flight, errors="yield"):
             frame, started = waiting.popleft()
             if isinstance(result, Exception):
-                self.add(frame.index, "failed", error=failure_message(result))
+                self.add(frame.index, "failed", error=failure_message(result),
+                         stamp=frame.stamp)
                 continue
-            self.latency.append(time.perf_counter() - started)
+            if self.rectifier is not None:  # as csw match --rig: no source, no disparity
+                self.rectifier.invalidate(result.disparity)
             with signals_held():  # a frame's map, preview frame and entry: all or none
                 self.save(frame, result)
+            self.latency.append(time.perf_counter() - started)  # arrival to map written
 
     def save(self, frame, result):
         s = result.settings
@@ -360,6 +587,12 @@ class _Run:
                     error = f"can't write {path}: {exc.strerror or exc}"
                     if exc.errno in DISK_FULL:
                         self.halt = f"frame {frame.index}: {error}"
+        if self.publish is not None and self.halt is None:
+            try:
+                self.publish(frame, result)
+            except OSError as exc:
+                self.halt = f"frame {frame.index}: can't write the bag " \
+                            f"({exc.strerror or exc})"
         if self.preview_path is not None and self.halt is None:
             try:
                 self.write_preview(frame, result.disparity)
@@ -371,7 +604,7 @@ class _Run:
             "notes": list(result.notes)}
         if self.each_range:
             fields["range"] = [s["dmin"], s["dmax"]]
-        self.add(frame.index, status, **fields)
+        self.add(frame.index, status, stamp=frame.stamp, **fields)
         if self.halt is not None:  # match_video keeps what is done and writes the summary
             raise VideoError(self.halt)
 
@@ -406,9 +639,11 @@ class _Run:
         self.canvas[:height] = picture
         return self.canvas
 
-    def add(self, index, status, **fields):
+    def add(self, index, status, stamp=None, **fields):
         entry = {"name": FRAME_NAME.format(index=index), "frame": index, "status": status,
                  **fields}
+        if stamp is not None:  # a log's frame: its stamp, exact, and as people read it
+            entry.update(stamp_ns=stamp, stamp=format_stamp(stamp))
         if self.out_dir is not None and status != "failed":
             entry["output"] = str(self.map_path(index))
         self.log.add(self.log.done, entry)  # in the order they come
@@ -426,6 +661,12 @@ class _Run:
                 reason = f"the preview video {self.preview_path} could not be written " \
                          f"({getattr(exc, 'strerror', None) or exc})"
                 self.stopped = f"{self.stopped}; {reason}" if self.stopped else reason
+        if self.publish is not None:
+            try:
+                self.publish.close()  # as the preview: what was matched, interrupted or not
+            except (OSError, LogError) as exc:
+                reason = f"the bag could not be written ({getattr(exc, 'strerror', None) or exc})"
+                self.stopped = f"{self.stopped}; {reason}" if self.stopped else reason
         latency = np.frombuffer(self.latency, np.float64) * 1e3
         extra = {
             "frames": self.log.done,
@@ -437,7 +678,7 @@ class _Run:
                            "p99": round(float(np.percentile(latency, 99)), 2)}
             if latency.size else None,
             "size": self.size, "range": self.range, "stream_notes": list(notes),
-            "stopped": self.stopped,
+            "stopped": self.stopped, **self.extra(),
         }
         try:
             if self.summary is not None:
@@ -456,4 +697,6 @@ class _Run:
         self.bar.close()
         if self.preview is not None:
             self.preview.discard()
+        if self.publish is not None:
+            self.publish.discard()
         self.log.close()

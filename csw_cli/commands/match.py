@@ -85,7 +85,10 @@ MATCH_HELP = opt.sectioned(
                                 "focal", "baseline", "cx", "cy", "doffs", "units",
                                 "calib_units"]),
     ("Raw pairs from a calibrated rig", ["rigs", "alpha", "rectified_left", "frame"]),
-    ("Video", ["sbs", "preview_video", "preview_sbs", "range_each_frame"]),
+    ("Video and live sources", ["sbs", "preview_video", "preview_sbs", "range_each_frame",
+                                "latest"]),
+    ("Robot logs (ROS 1/2 bags, MCAP, KITTI raw drives)",
+     ["left_topic", "right_topic", "stamp_tolerance", "bag_out", "bag_depth"]),
     ("Many pairs, big pairs and clusters", ["output_dir", "manifest", "suffix",
                                             "overwrite", "summary", "memory_limit",
                                             "workers", "scheduler"]),
@@ -166,7 +169,7 @@ MATCH_HELP = opt.sectioned(
                    "first (OpenCV YAML/XML, ROS camera_info left then right, KITTI "
                    "calib_cam_to_cam.txt, Kalibr camchain; repeat for two files). The "
                    "map is on the rectified left image's grid; the rig gives depth and "
-                   "clouds their calibration.")
+                   "clouds their calibration. A log: replaces its camera_info.")
 @click.option("--alpha", type=click.FloatRange(-1, 1), default=0.0, show_default=True,
               help="With --rig: 0 keeps only pixels with a source (no black border), 1 "
                    "every raw pixel.")
@@ -189,12 +192,33 @@ MATCH_HELP = opt.sectioned(
                    "every frame rather than on the first and keeping it, for a drive whose "
                    "depths change (a coarse match a frame: about a tenth more time at "
                    "640x480, twice the time at 320x240).")
+@click.option("--latest", is_flag=True,
+              help="A live source (- for standard input, /dev/video0 for a V4L2 camera, "
+                   "with --sbs): match the newest frame, dropping those that come while "
+                   "matching, rather than fall behind.")
+@click.option("--left-topic", help="Log: the left image topic [default: a .../left/... "
+                                   "image topic with a .../right/... twin, rectified "
+                                   "ones first].")
+@click.option("--right-topic", help="Log: the right image topic [default: the left's name "
+                                    "with right for left].")
+@click.option("--stamp-tolerance", type=click.FloatRange(0, 10, max_open=True), default=0.0,
+              show_default=True,
+              help="Log: seconds between a left and a right stamp that still pair (each "
+                   "the other's nearest, as message_filters' approximate time); 0: "
+                   "exact stamps.")
+@click.option("--bag-out", type=click.Path(),
+              help="Log: also write a new bag (.bag ROS 1, .mcap, else a ROS 2 bag "
+                   "folder) of each frame's DisparityImage (NS/disparity) and "
+                   "PointCloud2 (NS/points2), with the input's stamps and frame id.")
+@click.option("--bag-depth", is_flag=True,
+              help="With --bag-out: also depth images (32FC1, metres) on NS/depth.")
 @opt.stage_options()
 @click.pass_context
 def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, summary, workers,
           scheduler, memory_limit, preview, cost_map, confidence, depth, cloud,
           depth_preview, max_depth, units, rigs, alpha, rectified_left, frame, sbs,
-          preview_video, preview_sbs, range_each_frame, **_):
+          preview_video, preview_sbs, range_each_frame, latest, left_topic, right_topic,
+          stamp_tolerance, bag_out, bag_depth, **_):
     """Match LEFT against RIGHT (left is the reference) and write the disparity map.
 
     The match of left pixel x is right pixel x - d, for d in [DMIN, DMAX].  With --csw,
@@ -210,7 +234,13 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
 
     Video: give two videos (frames paired by index) or one side-by-side video with
     --sbs, and --output-dir (a map per frame, NNNNNN.pfm) or --preview-video or both.
-    Frames are matched side by side on every core while the next are decoded.
+    Frames are matched side by side on every core while the next are decoded.  A live
+    side-by-side source: a V4L2 camera (/dev/video0) or a stream on standard input (-),
+    with --sbs, and --latest to drop frames rather than fall behind.
+
+    Robot log: give one ROS 1 bag, ROS 2 bag (folder, .db3 or .mcap) or KITTI raw
+    drive folder, and --output-dir and/or --bag-out.  Frames are paired by header
+    stamp; raw topics are rectified with the rig from their camera_info (or --rig).
 
     \b
     Examples:
@@ -223,14 +253,31 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
       csw match big_left.tif big_right.tif -o disp.tif --memory-limit 1GiB
       csw match raw_l.png raw_r.png --rig stereo.yml -o disp.pfm --cloud c.ply
       csw match drive.mp4 --sbs -O maps/ --preview-video view.mp4 --dmax 64
+      csw match drive.mcap -O maps/ --bag-out stereo.mcap --dmax 64
+      ffmpeg -i cam.mkv -f mjpeg - | csw match - --sbs -O maps/ --latest --dmax 64
     """
     from csw.config import params
-    from csw.io.video import is_video
+    from csw.io.logs import is_log
+    from csw.io.video import is_live, is_video
 
     settings = opt.given(ctx, MATCH_OPTIONS)
+    log_only = [name for name in LOG_ONLY if ctx.get_parameter_source(name).name != "DEFAULT"]
+    if left is not None and not sbs and is_log(left):
+        return match_log(ctx, left, right, output_dir, suffix, overwrite, summary, rigs,
+                         alpha, preview_video, preview_sbs, range_each_frame, settings)
+    if log_only:
+        raise click.UsageError(f"--{log_only[0].replace('_', '-')} is for a log (a bag, "
+                               ".mcap, .db3 or a KITTI raw drive)")
+    live = left is not None and is_live(left)
+    if live and not sbs:
+        raise click.UsageError(f"{left} is a live source: give --sbs (one side-by-side "
+                               "camera or stream)")
+    if latest and not live:
+        raise click.UsageError("--latest is for a live source (- or /dev/videoN, with "
+                               "--sbs)")
     if sbs or (left is not None and is_video(left)):
         return match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
-                           preview_video, preview_sbs, range_each_frame, settings)
+                           preview_video, preview_sbs, range_each_frame, settings, latest)
     if preview_video or preview_sbs or range_each_frame:
         raise click.UsageError("--preview-video, --preview-sbs and --range-each-frame are "
                                "for video input")
@@ -365,10 +412,9 @@ NOT_FOR_VIDEO = ("output", "manifest", "preview", "cost_map", "confidence", "dep
 
 
 def match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
-                preview_video, preview_sbs, range_each_frame, settings):
+                preview_video, preview_sbs, range_each_frame, settings, latest=False):
     """The video form: two videos or one side-by-side video, a map per frame into
     OUTPUT_DIR and/or a preview video."""
-    from csw.config import params
     from csw.scale.stream import match_video as run
 
     given = [name for name in NOT_FOR_VIDEO
@@ -387,6 +433,29 @@ def match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
     if output_dir is None and preview_video is None:
         raise click.UsageError("give --output-dir DIR for a map per frame, "
                                "--preview-video FILE, or both")
+    config = stream_config(settings, preview_video, preview_sbs, range_each_frame)
+    try:
+        with opt.library_errors():
+            report = run(left, right, sbs=sbs, out_dir=output_dir, suffix=suffix,
+                         overwrite=overwrite, preview_video=preview_video,
+                         preview_sbs=preview_sbs, summary=summary,
+                         keep_range=not range_each_frame, latest=latest, config=config)
+    except OSError as exc:
+        raise write_error(exc) from None
+    report_stream(report, output_dir, summary, preview_video, range_each_frame)
+    if latest:
+        click.echo(f"csw: {report['dropped']} frame(s) dropped to keep up (--latest)",
+                   err=True)
+    counts = report["counts"]
+    if counts["failed"] or report["stopped"]:
+        raise SystemExit(1)
+
+
+def stream_config(settings, preview_video, preview_sbs, range_each_frame):
+    """The resolved options of a video's or a log's run, checked with its preview and
+    range options."""
+    from csw.config import params
+
     if preview_sbs and preview_video is None:
         raise click.UsageError("--preview-sbs needs --preview-video")
     with opt.library_errors():
@@ -394,14 +463,11 @@ def match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
     if range_each_frame and config.range_known:
         raise click.UsageError("--range-each-frame is for a range 'auto'; this run's is "
                                f"{config.dmin}..{config.dmax}")
-    try:
-        with opt.library_errors():
-            report = run(left, right, sbs=sbs, out_dir=output_dir, suffix=suffix,
-                         overwrite=overwrite, preview_video=preview_video,
-                         preview_sbs=preview_sbs, summary=summary,
-                         keep_range=not range_each_frame, config=config)
-    except OSError as exc:
-        raise write_error(exc) from None
+    return config
+
+
+def report_stream(report, output_dir, summary, preview_video, range_each_frame):
+    """The lines on stderr after a video's or a log's run."""
     counts = report["counts"]
     latency = report["latency_ms"] or {"median": 0.0, "p99": 0.0}
     where = f"; summary in {summary or Path(output_dir) / 'summary.json'}" \
@@ -423,5 +489,65 @@ def match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
         click.echo(f"csw: frame {name}: {note}", err=True)
     if report["stopped"]:
         click.echo(f"csw: stopped early: {report['stopped']}", err=True)
-    if counts["failed"] or report["stopped"]:
+
+
+LOG_ONLY = ("left_topic", "right_topic", "stamp_tolerance", "bag_out", "bag_depth")
+# The options a log's run takes beyond the video's (its rig, and the log's own).
+LOG_TAKES = ("rigs", "alpha", *LOG_ONLY)
+
+
+def match_log(ctx, log_path, right, output_dir, suffix, overwrite, summary, rigs, alpha,
+              preview_video, preview_sbs, range_each_frame, settings):
+    """The log form: a bag or a KITTI drive, a map per frame into OUTPUT_DIR, a bag of
+    messages (--bag-out), a preview video, or any of them."""
+    from csw.io.logs import read_log
+    from csw.scale.stream import match_log as run
+
+    given = [name for name in NOT_FOR_VIDEO if name not in LOG_TAKES
+             and ctx.get_parameter_source(name).name != "DEFAULT"]
+    if given:
+        raise click.UsageError(f"--{given[0].replace('_', '-').rstrip('s')} is not for a "
+                               "log; give --output-dir for a map per frame, --bag-out, or "
+                               "both")
+    if right is not None:
+        raise click.UsageError("a log holds both cameras; drop RIGHT")
+    p = ctx.params
+    if output_dir is None and preview_video is None and p["bag_out"] is None:
+        raise click.UsageError("give --output-dir DIR for a map per frame, --bag-out OUT "
+                               "for messages, --preview-video FILE, or more than one")
+    if p["bag_depth"] and p["bag_out"] is None:
+        raise click.UsageError("--bag-depth needs --bag-out")
+    config = stream_config(settings, preview_video, preview_sbs, range_each_frame)
+    rig = None
+    if rigs:
+        from csw.camera.rig import read_rig
+
+        with opt.library_errors("--rig"):
+            rig = read_rig(*rigs)
+    try:
+        with opt.library_errors():
+            log = read_log(log_path, p["left_topic"], p["right_topic"], rig=rig,
+                           tolerance=p["stamp_tolerance"], alpha=alpha,
+                           colour=p["bag_out"] is not None or preview_sbs)
+            try:
+                report = run(log, out_dir=output_dir, suffix=suffix, overwrite=overwrite,
+                             bag_out=p["bag_out"], depth=p["bag_depth"],
+                             preview_video=preview_video, preview_sbs=preview_sbs,
+                             summary=summary, keep_range=not range_each_frame,
+                             config=config)
+            finally:
+                log.close()
+    except OSError as exc:
+        raise write_error(exc) from None
+    info = report["log"]
+    unpaired = info["unpaired"]
+    rectified = f"; rectified with the rig of {info['rig']}" if info["rectified_by_csw"] \
+        else ""
+    click.echo(f"{info['left_topic']} and {info['right_topic']}: {info['pairs']} pairs "
+               f"({unpaired['left']} left and {unpaired['right']} right frames unpaired"
+               f"{rectified})", err=True)
+    report_stream(report, output_dir, summary, preview_video, range_each_frame)
+    if p["bag_out"] and report["frames"]:
+        click.echo(f"wrote {p['bag_out']}", err=True)
+    if report["counts"]["failed"] or report["stopped"]:
         raise SystemExit(1)

@@ -15,6 +15,7 @@ import pytest
 import tifffile
 from calib_fixtures import known_rig, views, write_views
 from layout_fixtures import kitti, middlebury2014
+from log_fixtures import write_bag
 from rig_fixtures import random_rig, raw_from_rectified, ros_camera_info, write_opencv
 
 from csw.data.synth import calib_text, render
@@ -116,8 +117,12 @@ def raw_rig(root, left, right):
     rig = random_rig(np.random.default_rng(1), size=(WIDTH, HEIGHT))
     r1, r2, p1, p2, _ = stereo_rectify(rig.k1, rig.d1, rig.k2, rig.d2, rig.size, rig.r,
                                        rig.t, 0.0)
-    write_png(root / "raw_left.png", raw_from_rectified(left, rig.k1, rig.d1, r1, p1))
-    write_png(root / "raw_right.png", raw_from_rectified(right, rig.k2, rig.d2, r2, p2))
+    raw = (raw_from_rectified(left, rig.k1, rig.d1, r1, p1),
+           raw_from_rectified(right, rig.k2, rig.d2, r2, p2))
+    write_png(root / "raw_left.png", raw[0])
+    write_png(root / "raw_right.png", raw[1])
+    # drive.mcap: a robot's log of three such frames, with CameraInfo beside each topic
+    write_bag(root / "drive.mcap", [raw] * 3, rig, (r1, r2, p1, p2))
     write_opencv(root / "stereo_rig.yml", rig)
     (root / "left.yaml").write_text(ros_camera_info(rig.k1, rig.d1, r1, p1, rig.size))
     (root / "right.yaml").write_text(ros_camera_info(rig.k2, rig.d2, r2, p2, rig.size))
