@@ -109,8 +109,9 @@ def test_bag_out_holds_disparity_cloud_and_depth_with_the_input_s_stamps(tmp_pat
     rig, rect, pairs = scene
     bag = write_bag(tmp_path / "in.bag", pairs[:2], rig, rect)
     log = read_log(bag, colour=True)
+    # accurate: whole-pixel disparities (delta_d 1) and a 9x9 window's valid window
     match_log(log, out_dir=tmp_path / "maps", bag_out=tmp_path / "out.mcap", depth=True,
-              dmax=DMAX, progress=False)
+              dmax=DMAX, progress=False, preset="accurate")
     topics = read_bag(tmp_path / "out.mcap")
     assert sorted(topics) == ["/stereo/depth", "/stereo/disparity", "/stereo/points2"]
     calibration = log.calibration
