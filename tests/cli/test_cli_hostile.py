@@ -200,13 +200,12 @@ def test_a_batch_survives_any_error_of_one_pair(tmp_path, monkeypatch):
         write_png(job.left, left)
     real = batch.match_files
 
-    def sometimes(left, right, output, boom, **options):
-        if boom:
+    def sometimes(left, right, output, **options):
+        # Pair a fails, by its name: the batch may start its pairs in either order.
+        if Path(left).name == "a.png":
             raise OverflowError("cannot convert float infinity to integer")
         return real(left, right, output, **options)
-    calls = iter([True, False])
-    monkeypatch.setattr(batch, "match_files",
-                        lambda a, b, o, **k: sometimes(a, b, o, next(calls), **k))
+    monkeypatch.setattr(batch, "match_files", sometimes)
     report = csw.match_many(jobs, tmp_path / "out", dmax=8, progress=False)
     assert report["counts"] == {"ok": 1, "skipped": 0, "failed": 1}
     assert "OverflowError" in report["pairs"][0]["error"]
