@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import kernels
-from ..kernels import filters, pad, sgm
+from ..kernels import filters, pad, prefilter, sgm
 from ..kernels.contract import census_bits
 from .stages import active, needs_extras
 
@@ -55,6 +55,8 @@ def entries(args, stages, dtype, confidence=False):
     return matching + \
         [entry for stage in active(stages, cost) for entry in stage.entries] + \
         filters.entries(float_map=True) + \
+        (prefilter.entries(dtype) if stages.prefilter == "xsobel" or
+         stages.texture_threshold is not None else []) + \
         (pad.entries(dtype) if args["engine"] == "fast" else [])  # its plans' padding
 
 

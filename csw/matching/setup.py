@@ -185,12 +185,14 @@ def documented_entries():
     for stage in FILTER_CHOICES:
         wanted += config_entries(params.resolve(preset="raw", dmax=8, **stage),
                                  np.dtype(np.uint8))
-    from ..kernels import remap, sgm  # remap: a raw pair from a rig (csw.camera.rectify)
+    from ..kernels import prefilter, remap, sgm  # remap: a raw pair from a rig (csw.camera.rectify)
 
     wanted += [("sgm", v) for v in sgm.variants(LARGEST_WINDOW)]
 
     for dtype in (None, "fixed", np.uint8, np.uint16):
         wanted += remap.entries(dtype)
+    for dtype in (np.uint8, np.uint16):  # the x-Sobel prefilter, of the texture check too
+        wanted += prefilter.entries(dtype)
     return list(dict.fromkeys((k, tuple(v)) for k, v in wanted + colour_entries()))
 
 

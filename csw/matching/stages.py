@@ -13,6 +13,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..config.params import OFF_STAGES
+from ..kernels import prefilter
 from ..kernels.contract import census_dtype
 from ..kernels.filters import fill_background, median_valid, speckle_mask
 
@@ -59,10 +60,9 @@ class Stage:
 
 def xsobel(image, cap):
     """StereoBM's prefilter: the 3x3 x-Sobel response, clipped to [-cap, cap] and offset
-    by cap, as uint8 (H, W); edge-replicated borders."""
-    p = np.pad(image.astype(np.int32), 1, mode="edge")
-    gx = (p[:-2, 2:] - p[:-2, :-2]) + 2 * (p[1:-1, 2:] - p[1:-1, :-2]) + (p[2:, 2:] - p[2:, :-2])
-    return (np.clip(gx, -cap, cap) + cap).astype(np.uint8)
+    by cap, as uint8 (H, W); edge-replicated borders (one compiled pass:
+    kernels/prefilter.py)."""
+    return prefilter.xsobel(image, cap)
 
 
 def box_sum(values, window):

@@ -24,10 +24,14 @@ def random_map(rng, shape, levels=5, holes=0.2):
 
 
 @settings(deadline=None)
-@given(seed=st.integers(0, 2**31), cap=st.sampled_from([1, 7, 31]))
-def test_xsobel_and_texture(seed, cap):
+@given(seed=st.integers(0, 2**31), cap=st.sampled_from([1, 7, 31, 63]),
+       shape=st.tuples(st.integers(1, 7), st.integers(1, 10)),
+       dtype=st.sampled_from([np.uint8, np.uint16]))
+def test_xsobel_and_texture(seed, cap, shape, dtype):
+    """The compiled prefilter (kernels/prefilter.py) on any shape, one row or one column
+    included, and 16-bit pixels, whose responses overflow 16 bits."""
     rng = np.random.default_rng(seed)
-    image = rng.integers(0, 256, (6, 9)).astype(np.uint8)
+    image = rng.integers(0, np.iinfo(dtype).max + 1, shape).astype(dtype)
     np.testing.assert_array_equal(stages.xsobel(image, cap), oracle.xsobel(image, cap))
     np.testing.assert_array_equal(stages.textured(image, 3, cap, 40),
                                   oracle.textured(image, 3, cap, 40))
