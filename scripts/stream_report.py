@@ -102,7 +102,8 @@ STAGE_STEPS = (("x-Sobel SAD 7x7 (no stage after it)",
                 {"preset": "camera", "lr_check": None, "speckle_size": 0}),
                ("+ left-right check", {"preset": "camera", "speckle_size": 0}),
                ("+ speckles: the camera preset", {"preset": "camera"}),
-               ("accurate (the default)", {}))
+               ("accurate (the default)", {}),
+               ("raw (SAD 9x9, no stage)", {"preset": "raw"}))
 PEER_STEPS = ("StereoBM default", "StereoBM + filters")
 
 
