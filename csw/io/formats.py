@@ -126,13 +126,14 @@ def pfm_writer(values):
     rows = np.array(np.flipud(values), "<f4", order="C")  # always a copy: changed below
     rows[~np.isfinite(rows)] = np.inf
     header = pfm_header(rows.shape[1], rows.shape[0])
+    return lambda tmp: write_parts(tmp, header, rows.data)
 
-    def write(tmp):
-        with open(tmp, "wb") as file:
-            file.write(header)
-            file.write(rows.data)
 
-    return write
+def write_parts(path, *parts):
+    """Write the bytes-like ``parts`` one after another into the file ``path``."""
+    with open(path, "wb") as file:
+        for part in parts:
+            file.write(part)
 
 
 def png_writer(image):
