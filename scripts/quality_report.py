@@ -408,8 +408,8 @@ def main():
             "texture threshold) and its speckle filter (window 100, range 32) and "
             "left-right check (disp12MaxDiff 1) on.\n",
             f"**{CAMERA}** is `--preset camera`, for camera rates: StereoBM's x-Sobel "
-            "prefilter, SAD over a 7×7 window, the left-right check at 1 and speckles "
-            "under 50 pixels removed.\n",
+            "prefilter, SAD over a 7×7 window, StereoBM's left-right check at 1 (from the "
+            "winners: `--winner-check 1`) and speckles under 50 pixels removed.\n",
             f"The recommended pipeline, **{RECOMMENDED}** (`csw match`'s default, "
             "`--preset accurate`): sparse 9×9 census codes (every second pixel of every "
             "second row and the centre's 8 neighbours: 32 bits), Hamming over a 9×9 window, "

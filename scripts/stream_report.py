@@ -99,9 +99,11 @@ def stream_table(repeat, **options):
 
 # The camera preset built up stage by stage, and the default beside it.
 STAGE_STEPS = (("x-Sobel SAD 7x7 (no stage after it)",
-                {"preset": "camera", "lr_check": None, "speckle_size": 0}),
-               ("+ left-right check", {"preset": "camera", "speckle_size": 0}),
+                {"preset": "camera", "winner_check": None, "speckle_size": 0}),
+               ("+ StereoBM's left-right check", {"preset": "camera", "speckle_size": 0}),
                ("+ speckles: the camera preset", {"preset": "camera"}),
+               ("the camera preset with the exact left-right check",
+                {"preset": "camera", "winner_check": None, "lr_check": 1}),
                ("accurate (the default)", {}),
                ("raw (SAD 9x9, no stage)", {"preset": "raw"}))
 PEER_STEPS = ("StereoBM default", "StereoBM + filters")
@@ -564,12 +566,14 @@ def notes(data):
             "saves.")
     for row in data.get("stages") or []:
         bm = row["ms"][PEER_STEPS[1]]
-        ms = [row["ms"][name] / bm for name, _ in STAGE_STEPS]
+        ms = {name: row["ms"][name] / bm for name, _ in STAGE_STEPS}
+        steps = [name for name, _ in STAGE_STEPS]
         lines.append(
             f"- At {row['size']}, one thread, against StereoBM + filters: x-Sobel SAD "
-            f"takes {ms[0]:.2f}x its time, the left-right check brings it to {ms[1]:.2f}x "
-            f"and the speckle filter to {ms[2]:.2f}x, the camera preset (accurate: "
-            f"{ms[3]:.2f}x; StereoBM's filters cost it "
+            f"takes {ms[steps[0]]:.2f}x its time, StereoBM's left-right check brings it to "
+            f"{ms[steps[1]]:.2f}x and the speckle filter to {ms[steps[2]]:.2f}x, the camera "
+            f"preset (with the exact check: {ms[steps[3]]:.2f}x; accurate: "
+            f"{ms[steps[4]]:.2f}x; StereoBM's filters cost it "
             f"{bm / row['ms'][PEER_STEPS[0]]:.2f}x its defaults' time).")
     by_size = {}
     for row in data["streams"]:

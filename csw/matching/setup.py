@@ -158,7 +158,8 @@ KERNEL_CHOICES = {"engine": ("fast", "window"), "csw": (False, True), "lr_check"
                   "subpixel": ("none", "parabola"), "dmin": (0, -8)}
 CENSUS_CHOICES = {"census_window": tuple(range(3, 16, 2)),
                   "census_pattern": ("dense", "sparse")}
-FILTER_CHOICES = ({"speckle_size": 100}, {"median": 3}, {"fill": "background"})
+FILTER_CHOICES = ({"speckle_size": 100}, {"median": 3}, {"fill": "background"},
+                  {"winner_check": 1})
 LARGEST_WINDOW = 31  # a wider window (rare) compiles its own on first use
 
 

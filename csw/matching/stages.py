@@ -15,7 +15,12 @@ import numpy as np
 from ..config.params import OFF_STAGES
 from ..kernels import prefilter
 from ..kernels.contract import census_dtype
-from ..kernels.filters import fill_background, median_valid, speckle_mask
+from ..kernels.filters import (
+    fill_background,
+    median_valid,
+    speckle_mask,
+    winners_consistent,
+)
 
 # Rows of input a stripe takes beyond its own for semi-global paths (see STAGES).
 SGM_MARGIN = 64
@@ -117,6 +122,11 @@ def _lr_check(run):
     return run.raw.lr_valid
 
 
+def _winners(run):
+    return winners_consistent(run.raw.disparity, run.raw.min_cost, run.stages.winner_check,
+                              run.invalid)
+
+
 def _uniqueness(run):
     return distinct(run.raw.min_cost, run.raw.second_cost, run.stages.uniqueness_ratio)
 
@@ -170,6 +180,9 @@ STAGES = (
     Stage("lr_check", ("lr_check",), "check",
           on=lambda st, cost: st.lr_check is not None, step=_lr_check,
           band_bytes=lambda st: 8),
+    Stage("winner_check", ("winner_check",), "check",
+          on=lambda st, cost: st.winner_check is not None, step=_winners,
+          band_bytes=lambda st: 1, entries=(("filters", ("winners",)),)),
     Stage("uniqueness_ratio", ("uniqueness_ratio",), "check",
           on=lambda st, cost: st.uniqueness_ratio is not None, step=_uniqueness,
           extras=True),
