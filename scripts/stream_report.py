@@ -604,6 +604,17 @@ def notes(data):
     lines.append(f"- RGB to gray at 1282x1110: an RGB array takes {gray:.2f} ms (median) in "
                  "csw's colour kernel, against the target of 3 ms: " +
                  ("met." if gray <= 3 else "not met."))
+    for preset, row in (data.get("split") or {}).items():
+        total = sum(row["ms"].values())
+        others = total - row["ms"]["matching"]
+        cores = data["cores"]
+        lines.append(
+            f"- A video frame's steps, {preset} preset, take {total:.1f} ms of one core, "
+            f"{others:.1f} of them beside the matching (decoding, colours, encoding, the "
+            f"map's file): on {cores} cores that caps a run at about "
+            f"{1000 * cores / total:.0f} frames a second however well they overlap, below "
+            f"the {row['matching_fps']:.0f} of the matching alone; a run is bound by the "
+            "matching alone only where a core is free for the rest.")
     if data["whole"]:
         for preset, ratios in data["whole"]["ratios"].items():
             ratio, target = statistics.median(ratios), WHOLE_TARGETS[preset]
