@@ -50,6 +50,27 @@ def lr_consistent(disp, right_disp, limit, invalid=-1, threads=None, out=None):
     return valid.view(np.bool_)
 
 
+def winners_consistent(disp, min_cost, limit, invalid=-1, threads=None, out=None):
+    """bool (H, W): StereoBM's left-right check (its disp12MaxDiff): d = disp[y, x] is
+    valid (not ``invalid``) and differs by at most ``limit`` from the disparity of the
+    left pixel that chose right pixel x - d at the least cost (min_cost; the first of
+    equals, left to right), the right image's match as StereoBM takes it.
+
+    disp: int32 (H, W); min_cost: int64 (H, W).  out: a uint8 (H, W) array of the
+    caller's to write the check into, else a new one.  threads: as for csw.match."""
+    disp = np.ascontiguousarray(disp, np.int32)
+    min_cost = np.ascontiguousarray(min_cost, np.int64)
+    valid = np.empty(disp.shape, np.uint8) if out is None else out
+    width = disp.shape[1]
+    # About 2 ns a pixel in one thread (two passes of a row): parallel from 4 MP up.
+    _by_rows("winners", dict(disp=disp, min_cost=min_cost, valid=valid, limit=int(limit),
+                             invalid=int(invalid)), disp.shape[0],
+             scratch={"best": lambda: np.empty(width, np.int64),
+                      "owner": lambda: np.empty(width, np.int32)},
+             threads=threads, per_pixel=12)
+    return valid.view(np.bool_)
+
+
 def as_float(disp, lr_valid, invalid, out=None, threads=None, workspace=None):
     """float32 (H, W): the integer map ``disp`` (int32 (H, W)) as floats, NaN where it
     holds ``invalid`` (contract.invalid) or where ``lr_valid`` (bool or uint8 (H, W), the

@@ -28,12 +28,26 @@ def ndisp16(dmax):
     return -(-(dmax + 1) // 16) * 16
 
 
+# StereoBM with its own filters on, as a robot user sets it (issue 42): its default
+# uniqueness ratio (15), prefilter and texture threshold, plus its speckle filter (windows
+# under 100 pixels, steps of 32 / 16 = 2 px) and its left-right check (disp12MaxDiff 1),
+# which its defaults leave off.
+BM_FILTERS = dict(uniquenessRatio=15, speckleWindowSize=100, speckleRange=32,
+                  disp12MaxDiff=1)
+
+
 def stereo_bm(ndisp, block=9, filters=True):
-    """StereoBM; filters=False turns off its texture and uniqueness tests."""
+    """StereoBM; filters=False turns off its texture and uniqueness tests, "all" turns
+    on its speckle filter and left-right check as well (:data:`BM_FILTERS`)."""
     bm = cv2.StereoBM_create(numDisparities=ndisp, blockSize=block)
     if not filters:
         bm.setTextureThreshold(0)
         bm.setUniquenessRatio(0)
+    if filters == "all":
+        bm.setUniquenessRatio(BM_FILTERS["uniquenessRatio"])
+        bm.setSpeckleWindowSize(BM_FILTERS["speckleWindowSize"])
+        bm.setSpeckleRange(BM_FILTERS["speckleRange"])
+        bm.setDisp12MaxDiff(BM_FILTERS["disp12MaxDiff"])
     return bm
 
 

@@ -47,8 +47,11 @@ def spread(values, digits=2):
            f"{max(values):.{digits}f}"
 
 
-def bm_for(dmax):
-    return stereo_bm(ndisp16(dmax))
+def bm_for(dmax, filters="all"):
+    """StereoBM over 0..dmax: with its speckle filter and left-right check on as well
+    (scripts/peers.py, BM_FILTERS: what the camera preset is measured against), or
+    filters=True for its defaults."""
+    return stereo_bm(ndisp16(dmax), filters=filters)
 
 
 def frames_per_second(run, count):
@@ -58,8 +61,8 @@ def frames_per_second(run, count):
 
 
 def stream_table(repeat, **options):
-    """Frames a second, csw against StereoBM, at 2 threads and at 1, in rounds; options:
-    the Matcher's beside dmax and threads (none: the default preset)."""
+    """Frames a second, csw against StereoBM with its filters, at 2 threads and at 1, in
+    rounds; options: the Matcher's beside dmax and threads (none: the default preset)."""
     rows = []
     for width, height, dmax in SIZES:
         pairs = [render(width, height, dmax, seed=7, phase=i / DISTINCT)[:2]
@@ -94,29 +97,31 @@ def stream_table(repeat, **options):
     return rows
 
 
-# The default preset built up stage by stage (the census options are the preset's).
-CENSUS = {"cost": "census", "census_window": 9, "census_pattern": "sparse"}
-STAGE_STEPS = (("raw SAD (no stage)", {"preset": "raw"}),
-               ("census", {"preset": "raw", **CENSUS}),
-               ("census + left-right check", {"preset": "raw", **CENSUS, "lr_check": 2}),
-               ("census + left-right check + speckles: the default", {}))
-# The default's stages on SAD: what the default would cost if its census cost nothing
-# beyond SAD's difference, the floor under its one-thread figure.
-FLOOR_STEPS = (("SAD + left-right check + speckles (the default's stages, no census)",
-                {"preset": "raw", "lr_check": 2, "speckle_size": 100, "speckle_range": 1.0}),)
+# The camera preset built up stage by stage, and the default beside it.
+STAGE_STEPS = (("x-Sobel SAD 7x7 (no stage after it)",
+                {"preset": "camera", "winner_check": None, "speckle_size": 0}),
+               ("+ StereoBM's left-right check", {"preset": "camera", "speckle_size": 0}),
+               ("+ speckles: the camera preset", {"preset": "camera"}),
+               ("the camera preset with the exact left-right check",
+                {"preset": "camera", "winner_check": None, "lr_check": 1}),
+               ("accurate (the default)", {}),
+               ("raw (SAD 9x9, no stage)", {"preset": "raw"}))
+PEER_STEPS = ("StereoBM default", "StereoBM + filters")
 
 
 def stage_table(rounds=7):
-    """Milliseconds a frame at 1 thread, the default preset built up stage by stage,
-    against StereoBM, called in turns: where the default's time goes."""
+    """Milliseconds a frame at 1 thread, the camera preset built up stage by stage, and
+    the default, against StereoBM with and without its filters, called in turns: where a
+    frame's time goes."""
     cv2.setNumThreads(1)
     rows = []
-    for width, height, dmax in SIZES[:2]:
+    for width, height, dmax in SIZES:
         pairs = [render(width, height, dmax, seed=7, phase=i / DISTINCT)[:2]
                  for i in range(4)]
-        runs = {"StereoBM": bm_for(dmax).compute}
+        runs = {PEER_STEPS[0]: bm_for(dmax, filters=True).compute,
+                PEER_STEPS[1]: bm_for(dmax).compute}
         runs.update({name: csw.Matcher(dmax=dmax, threads=1, **options).match
-                     for name, options in STAGE_STEPS + FLOOR_STEPS})
+                     for name, options in STAGE_STEPS})
         times = {name: [] for name in runs}
         for _ in range(rounds):
             for name, run in runs.items():
@@ -175,7 +180,7 @@ def overhead_table(calls=300):
     rows = []
     native.Bound.__call__ = timed
     try:
-        for preset in ("accurate", "raw", "paper"):
+        for preset in ("camera", "accurate", "raw", "paper"):
             matcher = csw.Matcher(preset=preset, dmax=31, threads=1)
             for _ in range(10):
                 matcher.match(left, right)
@@ -252,31 +257,112 @@ def vm_hwm_mb():
     return float("nan")
 
 
-def whole_process(folder, rounds=3, frames=300):
-    """``csw match`` on a side-by-side 640x480 video, writing the preview video, against
-    the OpenCV script doing the same, run in turns; wall seconds of whole processes."""
-    from csw.io.video import write_video
+WHOLE_PRESETS = ("camera", "accurate")
+WHOLE_TARGETS = {"camera": 1.2, "accurate": 1.0}
 
-    video = folder / "sbs.mp4"
-    distinct = [np.concatenate(render(640, 480, 63, seed=7, phase=i / 30)[:2], axis=1)
-                for i in range(30)]
-    write_video(video, (distinct[i % 30] for i in range(frames)), quality=12)
-    csw_command = [sys.executable, "-c", "from csw_cli.main import main; main()", "match",
-                   str(video), "--sbs", "--dmax", "63", "--preview-video",
-                   str(folder / "csw.mp4")]
-    cv_command = [sys.executable, str(ROOT / "scripts" / "opencv_video.py"), str(video),
-                  str(folder / "opencv.mp4"), "64"]
-    subprocess.run(csw_command, check=True, capture_output=True)  # warm: kernels cached
-    subprocess.run(cv_command, check=True, capture_output=True)
-    walls = {"csw": [], "opencv": []}
+
+def whole_process(folder, rounds=3, frames=300):
+    """``csw match`` on a side-by-side 640x480 video, writing a map per frame and the
+    preview video, with each of WHOLE_PRESETS, against the OpenCV script doing the same
+    (without the maps), run in turns; wall seconds of whole processes."""
+    video = sbs_video(folder, frames)
+    commands = {preset: [sys.executable, "-c", "from csw_cli.main import main; main()",
+                         "match", str(video), "--sbs", "--dmax", "63", "--preset", preset,
+                         "--output-dir", str(folder / f"maps-{preset}"), "--overwrite",
+                         "--preview-video", str(folder / f"{preset}.mp4")]
+                for preset in WHOLE_PRESETS}
+    commands["opencv"] = [sys.executable, str(ROOT / "scripts" / "opencv_video.py"),
+                          str(video), str(folder / "opencv.mp4"), "64"]
+    for command in commands.values():  # warm: kernels cached
+        subprocess.run(command, check=True, capture_output=True)
+    walls = {name: [] for name in commands}
     for _ in range(rounds):
-        for name, command in (("csw", csw_command), ("opencv", cv_command)):
+        for name, command in commands.items():
             (folder / f"{name}.mp4").unlink(missing_ok=True)
             start = time.perf_counter()
             subprocess.run(command, check=True, capture_output=True)
             walls[name].append(time.perf_counter() - start)
-    ratios = [o / c for c, o in zip(walls["csw"], walls["opencv"], strict=True)]
+    ratios = {preset: [o / c for c, o in zip(walls[preset], walls["opencv"], strict=True)]
+              for preset in WHOLE_PRESETS}
     return {"frames": frames, "walls": walls, "ratios": ratios}
+
+
+def sbs_video(folder, frames=300):
+    """The 640x480 side-by-side H.264 video of the moving scene (30 distinct frames)."""
+    from csw.io.video import write_video
+
+    video = folder / "sbs.mp4"
+    if not video.exists():
+        distinct = [np.concatenate(render(640, 480, 63, seed=7, phase=i / 30)[:2], axis=1)
+                    for i in range(30)]
+        write_video(video, (distinct[i % 30] for i in range(frames)), quality=12)
+    return video
+
+
+class Laps:
+    """Seconds spent in each named step: ``lap(step)`` charges the time since the last
+    lap (or restart) to ``step``."""
+
+    def __init__(self, steps):
+        self.seconds = dict.fromkeys(steps, 0.0)
+        self.restart()
+
+    def restart(self):
+        self.clock = time.perf_counter()
+
+    def __call__(self, step):
+        now = time.perf_counter()
+        self.seconds[step] += now - self.clock
+        self.clock = now
+
+
+SPLIT_STEPS = ("decoding to gray", "matching", "colour map", "preview encoding",
+               "map writing")
+
+
+def frame_split(folder, frames=150):
+    """Milliseconds a frame of each step of a video run, in one thread, one step after
+    another (the run itself overlaps them: csw.scale.stream), per preset, over the first
+    ``frames`` frames of the side-by-side video; and the matching alone as a stream
+    (Matcher.stream on the decoded frames, 2 threads): the frames a second the whole run
+    is bound by."""
+    from csw.io.formats import write_disparity
+    from csw.io.video import VideoReader, VideoWriter
+    from csw.scale.stream import DisparityColours
+
+    video = sbs_video(folder)
+    out = {}
+    for preset in WHOLE_PRESETS:
+        matcher = csw.Matcher(dmax=63, threads=1, preset=preset)
+        colours, pairs = DisparityColours(), []
+        writer = VideoWriter(folder / f"split-{preset}.mp4", 30.0)
+        lap = Laps(SPLIT_STEPS)
+        count = 0
+        for index, gray, _ in VideoReader(video):
+            lap("decoding to gray")
+            half = gray.shape[1] // 2
+            left, right = gray[:, :half], gray[:, half:]
+            result = matcher.match(left, right)
+            lap("matching")
+            picture = colours(result.disparity, 0, 63)
+            lap("colour map")
+            writer.write(picture)
+            lap("preview encoding")
+            write_disparity(folder / f"split-{index:06d}.pfm", result.disparity)
+            lap("map writing")
+            pairs.append((left, right))
+            count += 1
+            if count == frames:
+                break
+            lap.restart()
+        writer.close()
+        stream = csw.Matcher(dmax=63, threads=2, preset=preset)
+        list(stream.stream(pairs[:4]))
+        start = time.perf_counter()
+        list(stream.stream(pairs))
+        out[preset] = {"ms": {k: 1e3 * v / count for k, v in lap.seconds.items()},
+                       "matching_fps": count / (time.perf_counter() - start)}
+    return out
 
 
 def stream_rows(rows, target, met):
@@ -304,36 +390,36 @@ def markdown(data):
         "max over the rounds.  The frames are the moving synthetic scene (`csw synth "
         "--frames`), "
         f"{DISTINCT} distinct frames per size streamed over and over.", "",
-        "## Frames a second, default preset, against StereoBM", "",
-        "csw: `csw.Matcher(dmax=D, threads=T).stream(pairs)` (frames side by side, one "
-        "per thread, below the stripe switch).  StereoBM: `compute` per frame after "
-        "`cv2.setNumThreads(T)`, 9x9, its defaults.", "",
+        "## Frames a second, camera preset, against StereoBM with its filters", "",
+        "csw: `csw.Matcher(dmax=D, threads=T, preset=\"camera\").stream(pairs)` (frames "
+        "side by side, one per thread, below the stripe switch).  StereoBM: `compute` per "
+        "frame after `cv2.setNumThreads(T)`, 9x9, its defaults (uniqueness 15, its "
+        "prefilter and texture threshold) with its speckle filter (window 100, range 32) "
+        "and left-right check (disp12MaxDiff 1) on: scripts/peers.py's StereoBM + "
+        "filters, the map the camera preset is denser and lower in filled error than on "
+        "every registered pair (reports/quality.md).", "",
     ] + stream_rows(data["streams"], "target", "met in every round")
-    if data.get("streams_raw"):
-        out += ["", "## The same streams with the raw preset (SAD, no stage)", "",
-                "`csw.Matcher(dmax=D, threads=T, preset=\"raw\")`: the contract's "
-                "winner-take-all map, without the default's census, left-right check and "
-                "speckle filter (StereoBM's defaults have no left-right check or speckle "
-                "filter either).  The targets are the default preset's, for reference.", ""
-                ] + stream_rows(data["streams_raw"], "the default's target",
+    if data.get("streams_accurate"):
+        out += ["", "## The same streams with the default preset, accurate", "",
+                "`csw.Matcher(dmax=D, threads=T)`: census costs, the left-right check and "
+                "the speckle filter; against the same StereoBM + filters.  The targets are "
+                "the camera preset's, for reference.", ""
+                ] + stream_rows(data["streams_accurate"], "the camera's target",
                                 "at it in every round")
     if data.get("stages"):
-        names = [name for name, _ in STAGE_STEPS + FLOOR_STEPS
-                 if name in data["stages"][0]["ms"]]  # an older stream.json has no floor
+        names = [name for name, _ in STAGE_STEPS]
         out += ["", "## Where a frame's time goes (1 thread)", "",
-                "Milliseconds a frame (median), the default preset built up stage by stage "
-                "with `csw.Matcher.match`, against StereoBM's `compute` with its defaults "
-                "(which have no left-right check and no speckle filter), called in turns; "
-                "in brackets, the time over StereoBM's.  The last column is the default's "
-                "stages on SAD costs: what the default would take if its census cost no "
-                "more than SAD's difference.", "",
-                "| frames | d | StereoBM | " + " | ".join(names) + " |",
-                "|---|---|---|" + "---|" * len(names)]
+                "Milliseconds a frame (median), the camera preset built up stage by stage "
+                "with `csw.Matcher.match`, and the default, against StereoBM's `compute` "
+                "with its defaults and with its filters, called in turns; in brackets, the "
+                "time over StereoBM + filters'.", "",
+                "| frames | d | " + " | ".join(PEER_STEPS + tuple(names)) + " |",
+                "|---|---|" + "---|" * (len(names) + len(PEER_STEPS))]
         for row in data["stages"]:
-            bm = row["ms"]["StereoBM"]
-            out.append(f"| {row['size']} | {row['range']} | {bm:.1f} | " + " | ".join(
-                f"{row['ms'][name]:.1f} ({row['ms'][name] / bm:.2f}x)" for name in names)
-                + " |")
+            bm = row["ms"][PEER_STEPS[1]]
+            out.append(f"| {row['size']} | {row['range']} | " + " | ".join(
+                f"{row['ms'][name]:.1f} ({row['ms'][name] / bm:.2f}x)"
+                for name in PEER_STEPS + tuple(names)) + " |")
     out += ["", "## Frames side by side or one frame in stripes (2 threads)", "",
             "The same stream with `in_flight=2` (two frames at once, one thread each) and "
             "`in_flight=1` (one frame at a time, cut into row stripes on both threads). "
@@ -381,20 +467,44 @@ def markdown(data):
                 f"{memory['seconds']:.0f} s."]
     whole = data["whole"]
     if whole:
-        csw_fps = [whole["frames"] / w for w in whole["walls"]["csw"]]
-        cv_fps = [whole["frames"] / w for w in whole["walls"]["opencv"]]
+        fps = {name: [whole["frames"] / w for w in walls]
+               for name, walls in whole["walls"].items()}
         out += ["", "## Whole processes on a video", "",
                 f"A {whole['frames']}-frame 640x480 side-by-side H.264 video, d 0..63: "
-                "`csw match sbs.mp4 --sbs --dmax 63 --preview-video csw.mp4` (default "
-                "preset) against `python scripts/opencv_video.py` (VideoCapture, "
-                "cvtColor, StereoBM, applyColorMap, VideoWriter), run in turns, kernels "
-                "already compiled.", "",
-                "| | csw | OpenCV script |", "|---|---|---|",
-                f"| wall (s) | {spread(whole['walls']['csw'])} | "
-                f"{spread(whole['walls']['opencv'])} |",
-                f"| frames/s | {spread(csw_fps, 1)} | {spread(cv_fps, 1)} |",
-                f"| csw / OpenCV frames/s | {spread(whole['ratios'])} | |", "",
-                "Target: at least 1 (csw at the OpenCV script's frames a second)."]
+                "`csw match sbs.mp4 --sbs --dmax 63 --preset P --output-dir maps/ "
+                "--preview-video csw.mp4` (a PFM map per frame and the preview video) "
+                "against `python scripts/opencv_video.py` (VideoCapture, cvtColor, "
+                "StereoBM with its defaults, applyColorMap, VideoWriter; it writes no "
+                "maps), run in turns, kernels already compiled.  Targets: the camera "
+                "preset at least 1.2x the script's frames a second, accurate at least "
+                "1.0x.", "",
+                "| | wall (s) | frames/s | csw / OpenCV frames/s | target |",
+                "|---|---|---|---|---|"]
+        for name in whole["walls"]:
+            ratio = whole["ratios"].get(name)
+            target = WHOLE_TARGETS.get(name)
+            out.append(f"| {'OpenCV script' if name == 'opencv' else 'csw ' + name} | "
+                       f"{spread(whole['walls'][name])} | {spread(fps[name], 1)} | "
+                       + (f"{spread(ratio)} | ≥ {target} |" if ratio else " | |"))
+    split = data.get("split")
+    if split:
+        out += ["", "## Where a video frame's time goes", "",
+                "Milliseconds a frame (mean over the first 150 frames of the same video), "
+                "each step timed alone in one thread, one after another; `csw match` "
+                "overlaps them: a thread decodes frames ahead of the matcher, another "
+                "writes the maps and the preview behind it (csw.scale.stream), so that the "
+                "matcher's threads never wait for either.  The last column is the matching "
+                "alone as a stream (`Matcher.stream`, 2 threads) on the decoded frames: "
+                "the rate a run would reach if decoding and writing cost nothing.", "",
+                "| preset | " + " | ".join(SPLIT_STEPS) + " | matching alone, 2 threads "
+                "(frames/s) | whole run (frames/s, median) |",
+                "|---|" + "---|" * (len(SPLIT_STEPS) + 2)]
+        for preset, row in split.items():
+            run = statistics.median(whole["frames"] / w for w in whole["walls"][preset]) \
+                if whole else float("nan")
+            out.append(f"| {preset} | " + " | ".join(f"{row['ms'][k]:.2f}"
+                                                      for k in SPLIT_STEPS)
+                       + f" | {row['matching_fps']:.1f} | {run:.1f} |")
     out += ["", "## Where csw stands", ""] + data["notes"]
     return "\n".join(out) + "\n"
 
@@ -415,8 +525,8 @@ def main():
         return
     data = {"date": now_utc(), "cpu": cpu_name(), "llvm_cpu": llvm_cpu(),
             "cores": os.cpu_count()}
-    data["streams"] = stream_table(args.repeat)
-    data["streams_raw"] = stream_table(args.repeat, preset="raw")
+    data["streams"] = stream_table(args.repeat, preset="camera")
+    data["streams_accurate"] = stream_table(args.repeat)
     data["plan"] = plan_table()
     data["stages"] = stage_table()
     data["overhead"] = overhead_table()
@@ -424,6 +534,7 @@ def main():
     data["memory"] = None if args.quick else memory_check()
     with tempfile.TemporaryDirectory() as folder:
         data["whole"] = None if args.quick else whole_process(Path(folder))
+        data["split"] = frame_split(Path(folder))
     data["notes"] = notes(data)
     Path(args.output).write_text(markdown(data))
     Path(args.output).with_suffix(".json").write_text(json.dumps(data, indent=1,
@@ -438,41 +549,32 @@ def notes(data):
     if missed:
         worst = min(missed, key=lambda r: statistics.median(r["ratios"]))
         lines.append(
-            f"- Frames a second: {len(missed)} of {len(data['streams'])} rows miss their "
-            f"target; the furthest is {worst['size']} at {worst['threads']} thread(s), "
-            f"{statistics.median(worst['ratios']):.2f}x StereoBM.  Frames side by side "
-            "keep both cores busy (see the stripes table), so what is left is the work "
-            "per frame: the default preset's census costs, left-right check and speckle "
-            "filter, on a CPU without AVX-512 (this one has AVX2, where the census codes' "
-            "bit counts run in 32-bit lanes).")
+            f"- Frames a second, camera preset: {len(missed)} of {len(data['streams'])} "
+            f"rows miss their target in some round; the furthest is {worst['size']} at "
+            f"{worst['threads']} thread(s), {statistics.median(worst['ratios']):.2f}x "
+            "StereoBM + filters (median).")
     else:
-        lines.append("- Frames a second: every row meets its target in every round.")
-    if data.get("streams_raw"):
-        raw = data["streams_raw"]
-        at = [r for r in raw if r["met"]]
+        lines.append("- Frames a second, camera preset: every row meets its target in "
+                     "every round.")
+    if data.get("streams_accurate"):
+        rows = data["streams_accurate"]
         lines.append(
-            f"- With the raw preset (SAD, no stage) csw streams at "
-            f"{min(statistics.median(r['ratios']) for r in raw):.2f}-"
-            f"{max(statistics.median(r['ratios']) for r in raw):.2f}x StereoBM's frames a "
-            f"second (medians); {len(at)} of {len(raw)} rows reach the default's target in "
-            "every round.  The streaming itself keeps up: what the default preset adds "
-            "for accuracy is what it pays.")
+            f"- The default preset, accurate, streams at "
+            f"{min(statistics.median(r['ratios']) for r in rows):.2f}-"
+            f"{max(statistics.median(r['ratios']) for r in rows):.2f}x StereoBM + "
+            "filters' frames a second (medians): its census costs what the camera preset "
+            "saves.")
     for row in data.get("stages") or []:
-        ms = [row["ms"][name] / row["ms"]["StereoBM"] for name, _ in STAGE_STEPS]
+        bm = row["ms"][PEER_STEPS[1]]
+        ms = {name: row["ms"][name] / bm for name, _ in STAGE_STEPS}
+        steps = [name for name, _ in STAGE_STEPS]
         lines.append(
-            f"- At {row['size']}, one thread: csw's matching alone takes {ms[0]:.2f}x "
-            f"StereoBM's time with SAD and {ms[1]:.2f}x with the census; the left-right "
-            f"check brings it to {ms[2]:.2f}x and the speckle filter to {ms[3]:.2f}x, the "
-            "default (StereoBM's defaults make neither).")
-        if FLOOR_STEPS[0][0] in row["ms"]:  # an older stream.json has no floor
-            floor = row["ms"][FLOOR_STEPS[0][0]] / row["ms"]["StereoBM"]
-            lines.append(
-                f"  Even with the census costing no more than SAD, the left-right check and "
-                f"the speckle filter on SAD take {floor:.2f}x StereoBM's time there: "
-                + ("above the one-thread target's 1.0x: a faster census alone can't reach "
-                   "it; the SAD match, the check and the filter would each have to be "
-                   "faster too." if floor > 1.0 else
-                   "under the one-thread target's 1.0x, so a faster census could reach it."))
+            f"- At {row['size']}, one thread, against StereoBM + filters: x-Sobel SAD "
+            f"takes {ms[steps[0]]:.2f}x its time, StereoBM's left-right check brings it to "
+            f"{ms[steps[1]]:.2f}x and the speckle filter to {ms[steps[2]]:.2f}x, the camera "
+            f"preset (with the exact check: {ms[steps[3]]:.2f}x; accurate: "
+            f"{ms[steps[4]]:.2f}x; StereoBM's filters cost it "
+            f"{bm / row['ms'][PEER_STEPS[0]]:.2f}x its defaults' time).")
     by_size = {}
     for row in data["streams"]:
         by_size.setdefault(row["size"], {})[row["threads"]] = row
@@ -491,7 +593,7 @@ def notes(data):
     kernels_ms = {r["preset"]: r["kernels_ms"] for r in data["overhead"]}
     fast = max(v for k, v in medians.items() if k != "paper")
     lines.append(f"- Beyond its kernels a 320x240 match costs up to {fast:.2f} ms (median) "
-                 "with the presets a stream uses (accurate, raw): " +
+                 "with the presets a stream uses (camera, accurate, raw): " +
                  ("the target of 0.2 ms is met." if fast <= 0.2 else
                   "the target of 0.2 ms is not met.") +
                  (f"  The paper preset's {medians['paper']:.2f} ms is the hand-over to the "
@@ -502,12 +604,25 @@ def notes(data):
     lines.append(f"- RGB to gray at 1282x1110: an RGB array takes {gray:.2f} ms (median) in "
                  "csw's colour kernel, against the target of 3 ms: " +
                  ("met." if gray <= 3 else "not met."))
+    for preset, row in (data.get("split") or {}).items():
+        total = sum(row["ms"].values())
+        others = total - row["ms"]["matching"]
+        cores = data["cores"]
+        lines.append(
+            f"- A video frame's steps, {preset} preset, take {total:.1f} ms of one core, "
+            f"{others:.1f} of them beside the matching (decoding, colours, encoding, the "
+            f"map's file): on {cores} cores that caps a run at about "
+            f"{1000 * cores / total:.0f} frames a second however well they overlap, below "
+            f"the {row['matching_fps']:.0f} of the matching alone; a run is bound by the "
+            "matching alone only where a core is free for the rest.")
     if data["whole"]:
-        ratio = statistics.median(data["whole"]["ratios"])
-        lines.append(f"- Whole processes on video: csw runs at {ratio:.2f}x the OpenCV "
-                     "script's frames a second (median)" +
-                     ("." if ratio >= 1 else ", short of the target: its matching per "
-                      "frame costs more than StereoBM's here (first table)."))
+        for preset, ratios in data["whole"]["ratios"].items():
+            ratio, target = statistics.median(ratios), WHOLE_TARGETS[preset]
+            lines.append(f"- Whole processes on video, {preset} preset: csw runs at "
+                         f"{spread(ratios)}x the OpenCV script's frames a second (min / "
+                         f"median / max), target {target}x: "
+                         + ("met in every round." if min(ratios) >= target else
+                            "met at the median." if ratio >= target else "not met."))
     return lines
 
 

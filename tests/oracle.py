@@ -190,6 +190,23 @@ def subpixel(disp, best, prev, nxt, fit, invalid=-1):
     return out
 
 
+def winners_consistent(disp, cost, limit, invalid=-1):
+    """StereoBM's check: right pixel xr's match is the d of the least-cost left pixel
+    with x - d = xr (the leftmost of equals)."""
+    height, width = disp.shape
+    out = np.zeros((height, width), bool)
+    for y in range(height):
+        owner = {}
+        for x in range(width):
+            d = int(disp[y, x])
+            if d != invalid and (x - d not in owner or cost[y, x] < owner[x - d][0]):
+                owner[x - d] = (int(cost[y, x]), d)
+        for x in range(width):
+            d = int(disp[y, x])
+            out[y, x] = d != invalid and abs(d - owner[x - d][1]) <= limit
+    return out
+
+
 def speckles(disp, max_size, max_diff):
     from collections import deque
 

@@ -121,10 +121,19 @@ def read_pfm(path):
 
 def pfm_writer(values):
     """A ``write_to(tmp)`` for a float32 (H, W) map as PFM (inf where not finite)."""
-    values = np.where(np.isfinite(values), values, np.inf).astype("<f4")
-    height, width = values.shape
-    payload = pfm_header(width, height) + np.flipud(values).tobytes()
-    return lambda tmp: Path(tmp).write_bytes(payload)
+    # One copy, its rows bottom to top, written after the header without another (a
+    # video run writes a map a frame: the four copies this took cost 2-4 ms at 640x480).
+    rows = np.array(np.flipud(values), "<f4", order="C")  # always a copy: changed below
+    rows[~np.isfinite(rows)] = np.inf
+    header = pfm_header(rows.shape[1], rows.shape[0])
+    return lambda tmp: write_parts(tmp, header, rows.data)
+
+
+def write_parts(path, *parts):
+    """Write the bytes-like ``parts`` one after another into the file ``path``."""
+    with open(path, "wb") as file:
+        for part in parts:
+            file.write(part)
 
 
 def png_writer(image):

@@ -11,6 +11,8 @@ csw.config.params, off in the paper's contract:
   CSW                the B-map skip and its rules, as in the contract
   lr_check N         invalid where |d - d_right(x - d)| > N; the right image's map comes
                      from the same costs in the same pass (no second match)
+  winner_check N     StereoBM's check (disp12MaxDiff): as lr_check, the right image's
+                     match of xr being the least-cost left pixel whose winner is xr
   uniqueness_ratio U StereoBM's: invalid where a candidate 2 or more away costs at most
                      best * (1 + U/100)
   texture_threshold T  StereoBM's: invalid where the window's summed |x-Sobel| (the
@@ -31,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import kernels
-from ..kernels import filters, pad, sgm
+from ..kernels import filters, pad, prefilter, sgm
 from ..kernels.contract import census_bits
 from . import narrow
 from .stages import active, needs_extras
@@ -56,6 +58,8 @@ def entries(args, stages, dtype, confidence=False):
     return matching + \
         [entry for stage in active(stages, cost) for entry in stage.entries] + \
         filters.entries(float_map=True) + \
+        (prefilter.entries(dtype) if stages.prefilter == "xsobel" or
+         stages.texture_threshold is not None else []) + \
         (pad.entries(dtype) if args["engine"] == "fast" else [])  # its plans' padding
 
 
@@ -145,13 +149,15 @@ def is_row_local(stages):
 @dataclass
 class _Run:
     """What the checks and subpixel read: the left image (as given), the kernels'
-    MatchResult, the stages, the window and the rows matched (None: all)."""
+    MatchResult, the stages, the window, the rows matched (None: all) and the integer
+    map's invalid value (kernels.invalid)."""
 
     left: np.ndarray
     raw: object
     stages: object
     window: int
     rows: np.ndarray | None
+    invalid: int
 
 
 def match_rows(left, right, kernel_args, stages, confidence=False, workspace=None):
@@ -188,17 +194,24 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
         raw = kernels.match(a, b, **options, **kernel_args)
     invalid = kernels.invalid(kernel_args["dmin"])
     checks, shifts = active(stages, cost, "check"), active(stages, cost, "disparity")
-    if raw.second_cost is None and not shifts and \
-            all(stage.name == "lr_check" for stage in checks):
-        # Only the left-right check, if any, and no confidence: the float map in one pass.
-        disp = filters.as_float(raw.disparity, raw.lr_valid if checks else None,
-                                invalid, threads=kernel_args.get("threads"),
+    threads = kernel_args.get("threads")
+    names = [stage.name for stage in checks]
+    if raw.second_cost is None and not shifts and names in ([], ["lr_check"],
+                                                            ["winner_check"]):
+        # One left-right check, if any, and no confidence: the float map in one pass.
+        mask = raw.lr_valid if names == ["lr_check"] else None
+        if names == ["winner_check"]:
+            mask = filters.winners_consistent(
+                raw.disparity, raw.min_cost, stages.winner_check, invalid, threads,
+                out=kernels.workspace.empty(workspace, "winners-valid",
+                                            raw.disparity.shape, np.uint8))
+        disp = filters.as_float(raw.disparity, mask, invalid, threads=threads,
                                 workspace=workspace)
         return disp, None, Work(raw.min_cost, raw.evaluated, raw.candidates)
     valid = np.not_equal(raw.disparity, invalid,
                          out=kernels.workspace.empty(workspace, "valid", raw.disparity.shape,
                                                      np.bool_))
-    run = _Run(left, raw, stages, kernel_args["window"], rows)
+    run = _Run(left, raw, stages, kernel_args["window"], rows, invalid)
     for stage in checks:
         valid &= stage.step(run)
     disp = raw.disparity

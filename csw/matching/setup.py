@@ -158,7 +158,8 @@ KERNEL_CHOICES = {"engine": ("fast", "window"), "csw": (False, True), "lr_check"
                   "subpixel": ("none", "parabola"), "dmin": (0, -8)}
 CENSUS_CHOICES = {"census_window": tuple(range(3, 16, 2)),
                   "census_pattern": ("dense", "sparse")}
-FILTER_CHOICES = ({"speckle_size": 100}, {"median": 3}, {"fill": "background"})
+FILTER_CHOICES = ({"speckle_size": 100}, {"median": 3}, {"fill": "background"},
+                  {"winner_check": 1})
 LARGEST_WINDOW = 31  # a wider window (rare) compiles its own on first use
 
 
@@ -185,12 +186,14 @@ def documented_entries():
     for stage in FILTER_CHOICES:
         wanted += config_entries(params.resolve(preset="raw", dmax=8, **stage),
                                  np.dtype(np.uint8))
-    from ..kernels import remap, sgm  # remap: a raw pair from a rig (csw.camera.rectify)
+    from ..kernels import prefilter, remap, sgm  # remap: a raw pair from a rig (csw.camera.rectify)
 
     wanted += [("sgm", v) for v in sgm.variants(LARGEST_WINDOW)]
 
     for dtype in (None, "fixed", np.uint8, np.uint16):
         wanted += remap.entries(dtype)
+    for dtype in (np.uint8, np.uint16):  # the x-Sobel prefilter, of the texture check too
+        wanted += prefilter.entries(dtype)
     return list(dict.fromkeys((k, tuple(v)) for k, v in wanted + colour_entries()))
 
 

@@ -13,8 +13,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..config.params import OFF_STAGES
+from ..kernels import prefilter
 from ..kernels.contract import census_dtype
-from ..kernels.filters import fill_background, median_valid, speckle_mask
+from ..kernels.filters import (
+    fill_background,
+    median_valid,
+    speckle_mask,
+    winners_consistent,
+)
 
 # Rows of input a stripe takes beyond its own for semi-global paths (see STAGES).
 SGM_MARGIN = 64
@@ -59,10 +65,9 @@ class Stage:
 
 def xsobel(image, cap):
     """StereoBM's prefilter: the 3x3 x-Sobel response, clipped to [-cap, cap] and offset
-    by cap, as uint8 (H, W); edge-replicated borders."""
-    p = np.pad(image.astype(np.int32), 1, mode="edge")
-    gx = (p[:-2, 2:] - p[:-2, :-2]) + 2 * (p[1:-1, 2:] - p[1:-1, :-2]) + (p[2:, 2:] - p[2:, :-2])
-    return (np.clip(gx, -cap, cap) + cap).astype(np.uint8)
+    by cap, as uint8 (H, W); edge-replicated borders (one compiled pass:
+    kernels/prefilter.py)."""
+    return prefilter.xsobel(image, cap)
 
 
 def box_sum(values, window):
@@ -115,6 +120,11 @@ def _prefilter(left, right, stages):
 
 def _lr_check(run):
     return run.raw.lr_valid
+
+
+def _winners(run):
+    return winners_consistent(run.raw.disparity, run.raw.min_cost, run.stages.winner_check,
+                              run.invalid)
 
 
 def _uniqueness(run):
@@ -170,6 +180,9 @@ STAGES = (
     Stage("lr_check", ("lr_check",), "check",
           on=lambda st, cost: st.lr_check is not None, step=_lr_check,
           band_bytes=lambda st: 8),
+    Stage("winner_check", ("winner_check",), "check",
+          on=lambda st, cost: st.winner_check is not None, step=_winners,
+          band_bytes=lambda st: 1, entries=(("filters", ("winners",)),)),
     Stage("uniqueness_ratio", ("uniqueness_ratio",), "check",
           on=lambda st, cost: st.uniqueness_ratio is not None, step=_uniqueness,
           extras=True),

@@ -10,6 +10,7 @@ closed as it stands and the summary marked interrupted.
 
 import errno
 import os
+import queue
 import threading
 import time
 from array import array
@@ -500,6 +501,113 @@ def _match_stream(frames, info, config, *, out_dir, suffix, overwrite, summary,
     return run.finish(config, info["notes"])
 
 
+# Frames decoded ahead of the matcher, and frames matched waiting to be written: enough
+# to cover a slow frame on either side, few enough that memory stays flat (a 640x480
+# frame and its map are about 1.5 MB).
+DECODE_AHEAD, WRITE_BEHIND = 4, 4
+
+
+class _Ahead:
+    """The frames of a generator, produced in a thread of their own and handed over
+    through a queue of ``depth``: iterating yields them in order, and raises what the
+    generator raised where it raised it.  PyAV decodes and converts outside the GIL, so
+    the decoding runs beside the matcher's threads.  close() stops the thread and
+    closes the generator (its readers) in it."""
+
+    _END = object()
+
+    def __init__(self, frames, depth):
+        self._queue = queue.Queue(depth)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._produce, args=(frames,),
+                                        name="csw-decode", daemon=True)
+        self._thread.start()
+
+    def _produce(self, frames):
+        try:
+            for frame in frames:
+                if not self._put(frame):
+                    break
+        except BaseException as exc:  # noqa: BLE001 (handed to the consumer, raised there)
+            self._put(_Raised(exc))
+        finally:
+            close = getattr(frames, "close", None)
+            if close is not None:
+                close()
+            self._put(self._END)
+
+    def _put(self, item):
+        while not self._stop.is_set():
+            try:
+                self._queue.put(item, timeout=0.05)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def __iter__(self):
+        while True:
+            item = self._queue.get()
+            if item is self._END:
+                return
+            if isinstance(item, _Raised):
+                raise item.exception
+            yield item
+
+    def close(self):
+        self._stop.set()
+        self._thread.join()
+
+
+@dataclass
+class _Raised:
+    exception: BaseException
+
+
+class _Behind:
+    """Tasks (callables) run in order in a thread of their own, at most ``depth``
+    waiting: the writes of a stream's outputs.  The first task that raises stops the
+    rest (they are dropped) and its exception is raised in the caller's thread, by the
+    next put() or by close().  Signals reach the main thread only, so a task is never
+    cut short by a Ctrl-C: a frame's outputs and entry are written whole."""
+
+    def __init__(self, depth):
+        self._queue = queue.Queue(depth)
+        self.error = None
+        self._raised = False
+        self._thread = threading.Thread(target=self._run, name="csw-write", daemon=True)
+        self._thread.start()
+
+    def _run(self):
+        while True:
+            task = self._queue.get()
+            if task is None:
+                return
+            if self.error is None:
+                try:
+                    task()
+                except BaseException as exc:  # noqa: BLE001 (raised in the caller's thread)
+                    self.error = exc
+
+    def _raise(self):
+        if self.error is not None and not self._raised:
+            self._raised = True
+            raise self.error
+
+    def put(self, task):
+        self._raise()
+        self._queue.put(task)
+
+    def close(self, raising=True):
+        """Wait for every task put; then raise a task's error (once), unless not
+        ``raising``."""
+        if self._thread.is_alive():
+            self._queue.put(None)
+            self._thread.join()
+        if raising:
+            self._raise()
+
+
 class _Run:
     """The bookkeeping of one video's run: outputs written as results come, the
     summary's entries kept on disk (csw.scale.batch.PairLog), latencies in an array."""
@@ -527,41 +635,63 @@ class _Run:
         self.extra = dict  # more of the summary: a log's topics and pairs, the frames a
         # live source dropped
         self.halt = None  # a write that stops the run (a full disk), once the frame is logged
+        self.behind = None  # the writer's thread, while frames are matched (see go)
 
     def map_path(self, index):
         return self.out_dir / (FRAME_NAME.format(index=index) + self.suffix)
 
     def go(self, matcher, frames, in_flight):
+        """Match the frames, decoded ahead in a thread of their own and written behind
+        in another (:class:`_Ahead`, :class:`_Behind`), so that this thread only hands
+        them on: a frame's decoding and the last one's writing no longer leave a core
+        idle while the matcher waits for them.  The outputs, the summary's entries and
+        the progress are all written by the writer's thread, in the frames' order."""
         waiting = deque()  # the frames handed to the matcher, oldest first
+        self.behind = behind = _Behind(WRITE_BEHIND)
+        ahead = _Ahead(frames, DECODE_AHEAD)
 
         def pairs():
-            for frame in frames:
+            for frame in ahead:
                 if frame.error is not None:
-                    with signals_held():
-                        self.add(frame.index, "failed", error=failure_message(frame.error),
-                                 stamp=frame.stamp)
-                        if self.preview is not None:  # the video's timing: a black frame
-                            self.write_preview(frame, None)
+                    behind.put(lambda frame=frame: self.lost(frame))
                     continue
                 if self.out_dir is not None and not self.overwrite and \
                         self.map_path(frame.index).exists():
                     if self.preview_path is None and self.publish is None:
-                        self.add(frame.index, "skipped", stamp=frame.stamp)
+                        behind.put(lambda frame=frame: self.add(frame.index, "skipped",
+                                                                stamp=frame.stamp))
                         continue
                 waiting.append((frame, frame.arrived or time.perf_counter()))
                 yield frame.left, frame.right
 
-        for result in matcher.stream(pairs(), in_flight=in_flight, errors="yield"):
-            frame, started = waiting.popleft()
-            if isinstance(result, Exception):
-                self.add(frame.index, "failed", error=failure_message(result),
-                         stamp=frame.stamp)
-                continue
-            if self.rectifier is not None:  # as csw match --rig: no source, no disparity
-                self.rectifier.invalidate(result.disparity)
-            with signals_held():  # a frame's map, preview frame and entry: all or none
-                self.save(frame, result)
-            self.latency.append(time.perf_counter() - started)  # arrival to map written
+        try:
+            for result in matcher.stream(pairs(), in_flight=in_flight, errors="yield"):
+                frame, started = waiting.popleft()
+                if isinstance(result, Exception):
+                    behind.put(lambda frame=frame, result=result: self.add(
+                        frame.index, "failed", error=failure_message(result),
+                        stamp=frame.stamp))
+                    continue
+                if self.rectifier is not None:  # as csw match --rig: no source, no disparity
+                    self.rectifier.invalidate(result.disparity)
+                behind.put(lambda frame=frame, result=result, started=started:
+                           self.written(frame, result, started))
+        finally:
+            ahead.close()
+        behind.close()  # every frame matched is written; a write's error is raised here
+
+    def written(self, frame, result, started):
+        """A frame's outputs and entry (the writer's thread, which signals never cut
+        short: all or none), then its latency, from its arrival to its map written."""
+        self.save(frame, result)
+        self.latency.append(time.perf_counter() - started)
+
+    def lost(self, frame):
+        """A frame that could not be decoded: its entry, and a black preview frame (the
+        video's timing)."""
+        self.add(frame.index, "failed", error=failure_message(frame.error), stamp=frame.stamp)
+        if self.preview is not None:
+            self.write_preview(frame, None)
 
     def save(self, frame, result):
         s = result.settings
@@ -652,6 +782,8 @@ class _Run:
             self.progress(self.log.done, self.total)
 
     def finish(self, config, notes, interrupted=False):
+        if self.behind is not None:  # stopped early: what was matched is written first
+            self.behind.close(raising=False)
         self.seconds = time.perf_counter() - self.start
         self.bar.close()
         if self.preview is not None:
@@ -694,6 +826,8 @@ class _Run:
         return report
 
     def abandon(self):
+        if self.behind is not None:
+            self.behind.close(raising=False)
         self.bar.close()
         if self.preview is not None:
             self.preview.discard()

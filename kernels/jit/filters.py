@@ -1,4 +1,4 @@
-"""The post filters' workers (see kernels/filters.py): the left-right check, speckle
+"""The post filters' workers (see kernels/filters.py): the left-right checks, speckle
 removal over regions of similar disparity (as OpenCV's filterSpeckles), a median over
 valid pixels only, and the background fill of the Middlebury and KITTI kits.
 
@@ -22,6 +22,8 @@ F32, I32, I64, U8, F64 = (np.dtype(t) for t in (np.float32, np.int32, np.int64, 
 
 # Each filter's scalars (the entries' records; see kernels/signature.py).
 LR = scalar_index(("y0", "y1", "limit", "invalid"))
+WINNERS = LR  # the same scalars
+NO_COST = np.iinfo(np.int64).max  # above every winner's cost
 SPECKLE = scalar_index(("step", "y0", "y1", "max_size"))
 MEDIAN = scalar_index(("y0", "y1", "size"))
 FILL = scalar_index(("y0", "y1"))
@@ -34,6 +36,11 @@ def spec(kind):
         # the left-right check of a stripe of rows
         "lr": (lr_consistent, (arg("disp", I32, 2), arg("right_disp", I32, 2),
                                arg("valid", U8, 2)), LR),  # (H, W); valid out
+        # StereoBM's check: disp, min_cost, valid (H, W), valid out; best, owner (W,)
+        # scratch of the stripe
+        "winners": (winners_consistent, (arg("disp", I32, 2), arg("min_cost", I64, 2),
+                                         arg("valid", U8, 2), arg("best", I64, 1),
+                                         arg("owner", I32, 1)), WINNERS),
         # one step of the speckle filter (see speckle): parent, size (H*W,) the forest;
         # first (H,) each row's first run; here, above (W,) scratch; max_diff (1,);
         # edges (n,) the stripes' inner edges
@@ -66,6 +73,35 @@ def lr_consistent(disp, right_disp, valid, sc):
             d = disp[y, x]
             back = right_disp[y, x - d] if d != invalid else invalid
             valid[y, x] = lr_agrees(d, back, limit, invalid)
+    return 0
+
+
+@njit(**SERIAL)
+def winners_consistent(disp, min_cost, valid, best, owner, sc):
+    """StereoBM's left-right check (its disp12MaxDiff), for the rows y0 <= y < y1 (sc:
+    WINNERS): the right image's match of right pixel xr is the disparity of the left
+    pixel that chose xr at the least cost (the first of equals, left to right);
+    valid[y, x] = 1 where d = disp[y, x] is valid (not invalid) and differs from its
+    right pixel x - d's match by at most limit.  Two passes of the row's winners, where
+    the exact check (lr_consistent, the engines' right maps) takes the least of every
+    candidate's cost, a pass over the range per pixel.
+
+    disp: int32 (H, W); min_cost: int64 (H, W), each winner's cost; valid: uint8 (H, W)
+    out; best: int64 (W,), owner: int32 (W,), scratch."""
+    width = disp.shape[1]
+    limit, invalid = sc[WINNERS.limit], sc[WINNERS.invalid]
+    for y in range(sc[WINNERS.y0], sc[WINNERS.y1]):
+        best[:] = NO_COST
+        for x in range(width):
+            d = disp[y, x]
+            if d != invalid and min_cost[y, x] < best[x - d]:
+                best[x - d] = min_cost[y, x]
+                owner[x - d] = d
+        # Every right pixel a valid pixel points at was claimed in this row: by that
+        # pixel, if by no cheaper one.
+        for x in range(width):
+            d = disp[y, x]
+            valid[y, x] = d != invalid and abs(d - owner[x - d]) <= limit
     return 0
 
 

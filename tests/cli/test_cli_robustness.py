@@ -221,13 +221,16 @@ def half_then_enospc(path):
 
 
 @pytest.mark.parametrize("suffix, target", [
-    (".pfm", "pathlib.Path.write_bytes"), (".npy", "numpy.save"),
+    (".pfm", "csw.io.formats.write_parts"), (".npy", "numpy.save"),
     (".png", "pathlib.Path.write_bytes")])  # PNGs are encoded in memory, then written
 def test_a_failed_write_leaves_nothing(pair_files, tmp_path, monkeypatch, suffix, target):
     module, _, name = target.rpartition(".")
     if module == "pathlib.Path":
         import pathlib
         monkeypatch.setattr(pathlib.Path, "write_bytes", lambda self, data: half_then_enospc(self))
+    elif module == "csw.io.formats":
+        from csw.io import formats
+        monkeypatch.setattr(formats, "write_parts", lambda path, *parts: half_then_enospc(path))
     elif module == "numpy":
         monkeypatch.setattr(np, "save", lambda f, arr: half_then_enospc(f.name))
     (tmp_path / "out").mkdir()

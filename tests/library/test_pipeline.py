@@ -24,10 +24,14 @@ def random_map(rng, shape, levels=5, holes=0.2):
 
 
 @settings(deadline=None)
-@given(seed=st.integers(0, 2**31), cap=st.sampled_from([1, 7, 31]))
-def test_xsobel_and_texture(seed, cap):
+@given(seed=st.integers(0, 2**31), cap=st.sampled_from([1, 7, 31, 63]),
+       shape=st.tuples(st.integers(1, 7), st.integers(1, 10)),
+       dtype=st.sampled_from([np.uint8, np.uint16]))
+def test_xsobel_and_texture(seed, cap, shape, dtype):
+    """The compiled prefilter (kernels/prefilter.py) on any shape, one row or one column
+    included, and 16-bit pixels, whose responses overflow 16 bits."""
     rng = np.random.default_rng(seed)
-    image = rng.integers(0, 256, (6, 9)).astype(np.uint8)
+    image = rng.integers(0, np.iinfo(dtype).max + 1, shape).astype(dtype)
     np.testing.assert_array_equal(stages.xsobel(image, cap), oracle.xsobel(image, cap))
     np.testing.assert_array_equal(stages.textured(image, 3, cap, 40),
                                   oracle.textured(image, 3, cap, 40))
@@ -60,6 +64,40 @@ def test_speckle_in_stripes_equals_the_oracle(seed, size, step, height, monkeypa
     disp = random_map(rng, (height, 13), levels=3, holes=0.15)
     np.testing.assert_array_equal(filters.speckle_mask(disp, size, step, threads=2),
                                   oracle.speckles(disp, size, step))
+
+
+@settings(deadline=None)
+@given(seed=st.integers(0, 2**31), dmin=st.sampled_from([0, -3]), limit=st.integers(0, 2),
+       height=st.integers(1, 6), width=st.integers(1, 12))
+def test_winner_check_equals_the_oracle(seed, dmin, limit, height, width):
+    """StereoBM's left-right check on any map: ties in cost, every disparity a right
+    pixel inside the image (as the kernels' are), a negative range's invalid value."""
+    rng = np.random.default_rng(seed)
+    invalid = kernels.invalid(dmin)
+    x = np.arange(width)
+    # d in [dmin, dmin + 5] with 0 <= x - d < width, else invalid; few costs: ties.
+    disp = rng.integers(dmin, dmin + 6, (height, width))
+    disp = np.where((x - disp >= 0) & (x - disp < width) & (rng.random(disp.shape) < 0.85),
+                    disp, invalid).astype(np.int32)
+    cost = rng.integers(0, 4, (height, width)).astype(np.int64)
+    got = filters.winners_consistent(disp, cost, limit, invalid)
+    np.testing.assert_array_equal(got, oracle.winners_consistent(disp, cost, limit, invalid))
+
+
+@pytest.mark.parametrize("engine", kernels.ENGINE_NAMES)
+def test_winner_check_in_the_pipeline(small_scene, engine):
+    """The one-pass float map and the general path (the confidence asks for the second
+    costs) give the raw map with the oracle's check applied, on either engine."""
+    left, right = small_scene[0][:40, :60], small_scene[1][:40, :60]
+    options = dict(preset="raw", engine=engine, prefilter="xsobel", window=5, dmax=12)
+    raw = csw.match(left, right, **options)
+    winner = np.where(np.isfinite(raw.disparity), raw.disparity, -1).astype(np.int32)
+    want = np.where(oracle.winners_consistent(winner, raw.min_cost, 1), raw.disparity,
+                    np.nan)
+    for confidence in (False, True):
+        got = csw.match(left, right, winner_check=1, want_confidence=confidence, **options)
+        np.testing.assert_array_equal(got.disparity, want)
+    assert 0 < np.isnan(want).mean() < 0.5
 
 
 @pytest.fixture(scope="module")
