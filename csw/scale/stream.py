@@ -648,7 +648,9 @@ class _Run:
         the progress are all written by the writer's thread, in the frames' order."""
         waiting = deque()  # the frames handed to the matcher, oldest first
         self.behind = behind = _Behind(WRITE_BEHIND)
-        ahead = _Ahead(frames, DECODE_AHEAD)
+        # A live source reads in a thread of its own already, and with latest it must
+        # hand over only its newest frame: a queue ahead of it would keep old ones.
+        ahead = frames if isinstance(frames, LiveFrames) else _Ahead(frames, DECODE_AHEAD)
 
         def pairs():
             for frame in ahead:
@@ -674,17 +676,14 @@ class _Run:
                     continue
                 if self.rectifier is not None:  # as csw match --rig: no source, no disparity
                     self.rectifier.invalidate(result.disparity)
+                # The writer's thread, which signals never cut short: a frame's outputs
+                # and entry are written all or none.
                 behind.put(lambda frame=frame, result=result, started=started:
-                           self.written(frame, result, started))
+                           self.save(frame, result, started))
         finally:
-            ahead.close()
+            if ahead is not frames:
+                ahead.close()
         behind.close()  # every frame matched is written; a write's error is raised here
-
-    def written(self, frame, result, started):
-        """A frame's outputs and entry (the writer's thread, which signals never cut
-        short: all or none), then its latency, from its arrival to its map written."""
-        self.save(frame, result)
-        self.latency.append(time.perf_counter() - started)
 
     def lost(self, frame):
         """A frame that could not be decoded: its entry, and a black preview frame (the
@@ -693,7 +692,9 @@ class _Run:
         if self.preview is not None:
             self.write_preview(frame, None)
 
-    def save(self, frame, result):
+    def save(self, frame, result, started=None):
+        """A frame's map, bag messages and preview frame, then its entry, with its latency
+        from ``started`` (its arrival, perf_counter seconds) to its outputs written."""
         s = result.settings
         if self.size is None:
             self.size = [int(result.shape[1]), int(result.shape[0])]
@@ -734,6 +735,10 @@ class _Run:
             "notes": list(result.notes)}
         if self.each_range:
             fields["range"] = [s["dmin"], s["dmax"]]
+        if started is not None:
+            latency = time.perf_counter() - started
+            self.latency.append(latency)
+            fields["latency_ms"] = round(latency * 1e3, 2)
         self.add(frame.index, status, stamp=frame.stamp, **fields)
         if self.halt is not None:  # match_video keeps what is done and writes the summary
             raise VideoError(self.halt)

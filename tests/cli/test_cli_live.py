@@ -3,6 +3,7 @@ comes, or with --latest matching the newest frame and dropping the rest (a V4L2 
 /dev/video0, goes the same way through PyAV's v4l2 input; none is here to test)."""
 
 import json
+import statistics
 import subprocess
 
 import pytest
@@ -26,6 +27,10 @@ def test_a_stream_on_standard_input_is_matched_frame_by_frame(tmp_path):
     summary = json.loads((tmp_path / "maps" / "summary.json").read_text())
     assert summary["counts"]["ok"] == FRAMES and "dropped" not in summary
     assert 0 < summary["latency_ms"]["median"] <= summary["latency_ms"]["p99"]
+    # Each frame's own, from its arrival to its map written: the run's are their median
+    each = [entry["latency_ms"] for entry in summary["pairs"]]
+    assert len(each) == FRAMES and min(each) > 0
+    assert abs(statistics.median(each) - summary["latency_ms"]["median"]) <= 0.011
 
 
 @pytest.mark.slow
