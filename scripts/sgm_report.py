@@ -166,7 +166,9 @@ sample settings (block 5, P1 8·25, P2 32·25); StereoBM 9x9.
 The whole csw.match call (costs, aggregation, every stage) against each peer's
 compute(), in one process, interleaved, {args.rounds} rounds after a warm-up.  Ratio:
 each round's time over SGBM's one-thread time in that round (min / median / max).  M/s
-per core: million disparity evaluations (W x H x D) a second, per thread used.
+per core: million disparity evaluations (W x H x D) a second, per thread used.  "narrowed
+to 32" is `--sgm-narrow 32` (docs/engines.md): a half-size pass, then 32 disparities a
+pixel at full size (off by default: it raises Middlebury 2014's filled bad, quality.md).
 
 | pair | method | median ms | ratio to SGBM (1 thread) | M/s per core |
 |---|---|---|---|---|
