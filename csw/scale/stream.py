@@ -608,6 +608,18 @@ class _Behind:
             self._raise()
 
 
+class _Now:
+    """:class:`_Behind`'s interface, each task run at once in the caller's thread, with
+    signals held so that a Ctrl-C never cuts a frame's outputs and entry short."""
+
+    def put(self, task):
+        with signals_held():
+            task()
+
+    def close(self, raising=True):
+        pass
+
+
 class _Run:
     """The bookkeeping of one video's run: outputs written as results come, the
     summary's entries kept on disk (csw.scale.batch.PairLog), latencies in an array."""
@@ -647,7 +659,9 @@ class _Run:
         idle while the matcher waits for them.  The outputs, the summary's entries and
         the progress are all written by the writer's thread, in the frames' order."""
         waiting = deque()  # the frames handed to the matcher, oldest first
-        self.behind = behind = _Behind(WRITE_BEHIND)
+        # A bag's writer (a ROS 2 bag's SQLite) works only in the thread that opened it:
+        # a run that writes one writes in this thread.
+        self.behind = behind = _Behind(WRITE_BEHIND) if self.publish is None else _Now()
         # A live source reads in a thread of its own already, and with latest it must
         # hand over only its newest frame: a queue ahead of it would keep old ones.
         ahead = frames if isinstance(frames, LiveFrames) else _Ahead(frames, DECODE_AHEAD)
