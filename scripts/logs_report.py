@@ -155,8 +155,7 @@ def live_latency(folder, frames, fps, preset):
         jpegs.append(out.getvalue())
     maps = folder / "live"
     command = [str(Path(sys.executable).parent / "csw"), "match", "-", "--sbs", "--latest",
-               "--dmin", "0", "--dmax", str(DMAX), "--preset", preset, "-O", str(maps),
-               "--suffix", ".png"]
+               "--dmin", "0", "--dmax", str(DMAX), "--preset", preset, "-O", str(maps)]
     process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL)
     start = time.perf_counter()
@@ -239,7 +238,7 @@ def main():
         "",
         f"`csw match - --sbs --latest --preset {args.live_preset}` fed {args.live_frames:,} "
         f"side-by-side frames ({WIDTH}x{HEIGHT} views, MJPEG) through a pipe at 30 "
-        "frames/s, each at its time, maps written as 16-bit PNG: "
+        "frames/s, each at its time, maps written as PFM (a video run's default): "
         f"{live['counts']['ok']:,} matched, {live.get('dropped', 0):,} dropped to keep up. "
         "Latency, from a frame's arrival to its map written, median (p99) over the first "
         "and the last thousand frames matched: "

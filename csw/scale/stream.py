@@ -659,9 +659,12 @@ class _Run:
         idle while the matcher waits for them.  The outputs, the summary's entries and
         the progress are all written by the writer's thread, in the frames' order."""
         waiting = deque()  # the frames handed to the matcher, oldest first
-        # A bag's writer (a ROS 2 bag's SQLite) works only in the thread that opened it:
-        # a run that writes one writes in this thread.
-        self.behind = behind = _Behind(WRITE_BEHIND) if self.publish is None else _Now()
+        # A bag's writer (a ROS 2 bag's SQLite) works only in the thread that opened it,
+        # and a live source with latest drops frames at the source so that none waits:
+        # those runs write in this thread, with no queue of frames matched behind.
+        latest = isinstance(frames, LiveFrames) and frames.latest
+        self.behind = behind = _Now() if self.publish is not None or latest else \
+            _Behind(WRITE_BEHIND)
         # A live source reads in a thread of its own already, and with latest it must
         # hand over only its newest frame: a queue ahead of it would keep old ones.
         ahead = frames if isinstance(frames, LiveFrames) else _Ahead(frames, DECODE_AHEAD)
