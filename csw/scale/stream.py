@@ -446,10 +446,13 @@ def _check_outputs(config, inputs, out_dir, suffix, summary, preview_video=None,
         if folder != out_dir and not folder.is_dir():
             raise OptionError(option, f"folder {str(folder)!r} does not exist; create it "
                                       "first")
-    named = [os.path.realpath(p) for p in checked.values() if p is not None]
-    if len(set(named)) < len(named):
-        raise OptionError("preview_video", "two outputs (preview video, summary, bag) are "
-                                           "one file")
+    seen = {}
+    for option, path in checked.items():
+        if path is not None:
+            other = seen.setdefault(os.path.realpath(path), option)
+            if other != option:  # the option named last, which the user may change
+                raise OptionError(option, f"{path} is also the {other.replace('_', ' ')}; "
+                                          "two outputs can't be one file")
     return out_dir, summary
 
 

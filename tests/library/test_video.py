@@ -227,3 +227,15 @@ def test_write_video_leaves_nothing_when_it_fails(tmp_path):
     with pytest.raises(RuntimeError):
         write_video(tmp_path / "v.mp4", frames())
     assert os.listdir(tmp_path) == []
+
+
+def test_two_outputs_that_are_one_file_name_the_option_that_collides(tmp_path):
+    """The error names the option given last of the two, with the other's role."""
+    from csw.config.params import OptionError, resolve
+    from csw.scale.stream import _check_outputs
+
+    with pytest.raises(OptionError, match="summary.json is also the summary") as info:
+        _check_outputs(resolve(dmax=15), [], tmp_path / "maps", ".pfm", None,
+                       bag_out=tmp_path / "maps" / "summary.json")
+    assert info.value.option == "bag_out"
+    assert not (tmp_path / "maps").exists()
