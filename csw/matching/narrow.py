@@ -74,7 +74,7 @@ def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
     # row and column of an odd size their neighbour's.
     ys = np.minimum(np.arange(height) // 2, low.shape[0] - 1)
     xs = np.minimum(np.arange(width) // 2, low.shape[1] - 1)
-    low, high, own = (a[ys][:, xs] for a in (low, high, own))
+    low, high, own, known = (a[ys][:, xs] for a in (low, high, own, known))
     base = 2 * (dmin // 2) - dmin  # full-size offset of the half range's start
     first = 2 * low + base - MARGIN
     last = 2 * high + base + MARGIN
@@ -83,5 +83,5 @@ def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
     on_own = 2 * own + base - slots // 2
     start = np.where(span <= slots, centred, on_own)
     # Where the neighbourhood had no half-size match at all: from the range's start.
-    start = np.where(known[ys][:, xs], start, 0)
+    start = np.where(known, start, 0)
     return np.clip(start, 0, ndisp - slots).astype(np.int32)
