@@ -56,9 +56,9 @@ _PUBLIC = {
     "read_calibration": ("camera.calibration", "read_calibration"),
     "read_disparity": ("io.formats", "read_disparity"),
     "read_image": ("io.images", "read_image"),
-    "read_log": ("io.logs", "read_log"),
+    "read_log": ("robot.logs", "read_log"),
     "read_rig": ("camera.rig", "read_rig"),
-    "rectify_files": ("camera.rectify", "rectify_files"),
+    "rectify_files": ("camera.rectify_files", "rectify_files"),
     "run_bench": ("eval.bench", "run_bench"),
     "scan_folder": ("data.layouts", "scan"),
     "score": ("eval.scoring", "score"),
@@ -68,12 +68,14 @@ _PUBLIC = {
     "write_disparity": ("io.formats", "write_disparity"),
     "write_ply": ("camera.geometry", "write_ply"),
 }
-_SUBMODULES = {"camera", "config", "data", "eval", "io", "kernels", "matching", "scale"}
+_SUBMODULES = {"camera", "config", "data", "eval", "io", "kernels", "matching", "robot",
+               "scale"}
 
 if TYPE_CHECKING:  # what the table above imports on first use, for readers and tools
     from .camera.calibration import Calibration, read_calibration
     from .camera.geometry import depth, point_cloud, write_ply
-    from .camera.rectify import Rectifier, rectify_files
+    from .camera.rectify import Rectifier
+    from .camera.rectify_files import rectify_files
     from .camera.rig import Rig, read_rig
     from .config.params import OptionError
     from .data.datasets import DataError, Pair
@@ -86,10 +88,10 @@ if TYPE_CHECKING:  # what the table above imports on first use, for readers and 
     from .eval.sweep import sweep_rows
     from .io.formats import read_disparity, write_disparity
     from .io.images import ImageError, read_image
-    from .io.logs import read_log
     from .matching.files import match_files
     from .matching.matcher import Matcher, Result, match
     from .matching.setup import compile_kernels
+    from .robot.logs import read_log
     from .scale.batch import Job, jobs_from_folders, jobs_from_manifest, match_many
     from .scale.stream import match_log
     from .scale.tiled.run import TiledResult, match_tiled

@@ -18,8 +18,8 @@ import numpy as np
 
 import csw
 from csw.data.synth import render
-from csw.io.bags import BagWriter, image_message
-from csw.io.logs import read_log
+from csw.robot.bags import BagWriter, image_message
+from csw.robot.logs import read_log
 from csw.scale.stream import match_log
 
 ROOT = Path(__file__).resolve().parents[1]

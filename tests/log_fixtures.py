@@ -1,6 +1,6 @@
 """Robot logs built on the fly: csw's synthetic scenes pushed through a known distorted
 rig (as the rectification tests do), written with rosbags' writers (through
-csw.io.bags.BagWriter) as ROS 1 bags, ROS 2 SQLite bags or MCAP files, with a
+csw.robot.bags.BagWriter) as ROS 1 bags, ROS 2 SQLite bags or MCAP files, with a
 CameraInfo topic beside each image topic; and KITTI raw drives."""
 
 from pathlib import Path
@@ -10,8 +10,8 @@ from rig_fixtures import random_rig, raw_from_rectified
 
 import csw
 from csw.camera.rectify import stereo_rectify
-from csw.io.bags import BagWriter, image_message
 from csw.io.formats import write_png
+from csw.robot.bags import BagWriter, image_message
 
 SIZE = (320, 240)
 DMAX = 20

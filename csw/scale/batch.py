@@ -20,8 +20,9 @@ from ..io import safety
 from ..io.atomic import atomic_write, remove_temporaries
 from ..io.formats import check_range, suffixes
 from ..io.images import ImageError
+from ..io.progress import progress_bar
 from ..matching.files import match_files, role_suffixes
-from .executor import progress_bar, run_tasks
+from .executor import run_tasks
 
 # A name's outputs add a suffix (".depth.tiff") to it, and a file name holds 255 bytes.
 MAX_NAME_BYTES = 200

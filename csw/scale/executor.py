@@ -5,7 +5,6 @@ so they share cancellation, ordering and progress.
 """
 
 import itertools
-import sys
 
 # Tasks on a cluster's queue per worker thread: enough that no worker waits for the
 # next one, few enough that a million-pair batch holds a few dozen tasks at a time.
@@ -81,11 +80,3 @@ def _in_threads(function, tasks, threads, kwargs):
         for future in running:
             future.cancel()
         pool.shutdown(wait=True)
-
-
-def progress_bar(total, desc, unit, enabled=True, initial=0):
-    """A progress bar on stderr (tqdm), or one that does nothing."""
-    from tqdm import tqdm
-
-    return tqdm(total=total, initial=initial, desc=desc, unit=unit, file=sys.stderr,
-                disable=not enabled)

@@ -24,13 +24,13 @@ import numpy as np
 from ..config.params import OptionError, resolve
 from ..io import safety
 from ..io.formats import check_range, suffixes, write_disparity
-from ..io.logs import LogError, format_stamp
 from ..io.pictures import INVALID, TURBO
+from ..io.progress import progress_bar
 from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoReader, VideoWriter, is_live
 from ..matching.disparity_range import check_bounds
 from ..matching.matcher import Matcher
+from ..robot.logs import LogError, format_stamp
 from .batch import PairLog, failure_message, signals_held, write_summary
-from .executor import progress_bar
 
 FRAME_NAME = "{index:06d}"  # a frame's outputs: 000000.pfm, 000001.pfm ...
 
@@ -319,7 +319,7 @@ def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None
     """Match every stereo frame of a robot's log: a ROS 1 bag, a ROS 2 bag (folder,
     .db3 or .mcap) or a KITTI raw drive, as :func:`match_video` matches a video.
 
-    log : path or csw.io.logs.Log
+    log : path or csw.robot.logs.Log
         The log, or one opened by :func:`csw.read_log` (its topics, rig, tolerance).
     out_dir, suffix, overwrite, preview_video, preview_sbs, summary, progress,
     in_flight, keep_range, **match_options
@@ -329,13 +329,13 @@ def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None
         stereo_msgs/DisparityImage on NS/disparity and sensor_msgs/PointCloud2 on
         NS/points2 (NS: the topics' namespace, as stereo_image_proc's), with ``depth``
         a 32FC1 depth Image in metres on NS/depth: each with the frame's stamp and the
-        left frames' frame id (csw.io.bags).
+        left frames' frame id (csw.robot.bags).
 
     Returns the summary, as :func:`match_video`'s, with "log": the topics, pairs,
     unpaired frames (left, right), whether csw rectified the frames, and with which
     rig.
     """
-    from ..io.logs import Log
+    from ..robot.logs import Log
 
     config = _config(config, match_options)
     if isinstance(log, (str, os.PathLike)):  # opened here: closed here
@@ -364,7 +364,7 @@ def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None
               for index, left, right, colour, stamp in log.frames())
     publish = None
     if bag_out is not None:
-        from ..io.bags import BagWriter
+        from ..robot.bags import BagWriter
 
         publish = _Publisher(BagWriter(bag_out), log, config, depth)
     return _match_stream(frames, info, config, out_dir=out_dir, suffix=suffix,
@@ -374,7 +374,7 @@ def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None
 
 
 class _Publisher:
-    """A log's frames' messages into a bag (csw.io.bags), on the topics' namespace."""
+    """A log's frames' messages into a bag (csw.robot.bags), on the topics' namespace."""
 
     def __init__(self, writer, log, config, depth):
         self.writer, self.depth = writer, depth
@@ -382,7 +382,7 @@ class _Publisher:
         self.namespace = log.output_topics()
 
     def __call__(self, frame, result):
-        from ..io.bags import stereo_messages
+        from ..robot.bags import stereo_messages
 
         colour = frame.colour if frame.colour is not None else frame.left
         settings = dict(result.settings)

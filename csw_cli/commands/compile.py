@@ -21,9 +21,9 @@ def compile_(presets):
       csw compile
       NUMBA_CACHE_DIR=.cache/numba csw compile --preset accurate
     """
+    from csw.io.progress import progress_bar
     from csw.kernels import native
     from csw.matching.setup import compile_kernels, documented_entries, preset_entries
-    from csw.scale.executor import progress_bar
 
     total = len(preset_entries(presets) if presets else documented_entries())
     with progress_bar(total, "csw compile", "kernel") as bar:

@@ -23,7 +23,7 @@ def info(log, fmt):
       csw info drive.mcap
       csw info 2011_09_26/2011_09_26_drive_0001_sync --format json
     """
-    from csw.io.logs import describe_log
+    from csw.robot.logs import describe_log
 
     with opt.library_errors("LOG"):
         topics = describe_log(log)

@@ -268,8 +268,8 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
       ffmpeg -i cam.mkv -f mjpeg - | csw match - --sbs -O maps/ --latest --dmax 64
     """
     from csw.config import params
-    from csw.io.logs import is_log
     from csw.io.video import is_live, is_video
+    from csw.robot.logs import is_log
 
     settings = opt.given(ctx, MATCH_OPTIONS)
     log_only = [name for name in LOG_ONLY if ctx.get_parameter_source(name).name != "DEFAULT"]
@@ -511,7 +511,7 @@ def match_log(ctx, log_path, right, output_dir, suffix, overwrite, summary, rigs
               preview_video, preview_sbs, range_each_frame, settings):
     """The log form: a bag or a KITTI drive, a map per frame into OUTPUT_DIR, a bag of
     messages (--bag-out), a preview video, or any of them."""
-    from csw.io.logs import read_log
+    from csw.robot.logs import read_log
     from csw.scale.stream import match_log as run
 
     given = [name for name in NOT_FOR_VIDEO if name not in LOG_TAKES

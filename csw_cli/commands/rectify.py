@@ -46,7 +46,7 @@ def rectify(left, right, manifest, rigs, output_dir, alpha, threads):
         return rectify_batch(left, right, manifest, rigs, output_dir, alpha, threads)
     if left is None or right is None:
         raise click.UsageError("give LEFT and RIGHT images (or folders, or --manifest)")
-    from csw.camera.rectify import rectify_files
+    from csw.camera.rectify_files import rectify_files
     from csw.camera.rig import read_rig
     from csw.io.images import image_header
 
@@ -66,7 +66,7 @@ def rectify(left, right, manifest, rigs, output_dir, alpha, threads):
 def rectify_batch(left, right, manifest, rigs, output_dir, alpha, threads):
     """The batch form: pairs from two folders or a manifest."""
     from csw import jobs_from_folders, jobs_from_manifest
-    from csw.camera.rectify import rectify_many
+    from csw.camera.rectify_files import rectify_many
     from csw.camera.rig import read_rig
     from csw.scale.batch import first_size
 

@@ -16,7 +16,7 @@ from log_fixtures import (
     write_rig_yaml,
 )
 
-from csw.io.bags import image_message
+from csw.robot.bags import image_message
 from csw_cli.main import cli
 
 pytest.importorskip("rosbags")  # in the test extras: skipped only outside them
@@ -66,7 +66,7 @@ def test_match_a_bag_writes_maps_a_summary_and_a_bag_of_messages(tmp_path, scene
     # The cloud's points are csw cloud's on the same map, with the log's calibration.
     from plyfile import PlyData
 
-    from csw.io.logs import read_log
+    from csw.robot.logs import read_log
 
     c = read_log(bag).calibration
     result = invoke("cloud", tmp_path / "maps" / "000001.pfm", "-o", tmp_path / "c.ply",

@@ -1,4 +1,4 @@
-"""Robot logs in (csw.read_log, csw.match_log) and robot messages out (csw.io.bags): bags
+"""Robot logs in (csw.read_log, csw.match_log) and robot messages out (csw.robot.bags): bags
 built on the fly from synthetic scenes pushed through a known distorted rig."""
 
 import json
@@ -18,8 +18,8 @@ from log_fixtures import (
 from rig_fixtures import kitti_text
 
 import csw
-from csw.io.bags import BagWriter, image_message
-from csw.io.logs import LogError, decode, demosaic, pair_stamps, read_log
+from csw.robot.bags import BagWriter, image_message
+from csw.robot.logs import LogError, decode, demosaic, pair_stamps, read_log
 from csw.scale.stream import match_log
 
 pytest.importorskip("rosbags")

@@ -19,7 +19,8 @@ from rig_fixtures import (
 )
 
 import csw
-from csw.camera.rectify import Rectifier, rectify_files, rectify_maps, stereo_rectify
+from csw.camera.rectify import Rectifier, rectify_maps, stereo_rectify
+from csw.camera.rectify_files import rectify_files
 from csw.camera.rig import Rig, read_rig
 from csw.kernels.remap import remap
 

@@ -20,11 +20,12 @@ import numpy as np
 from ...config.params import resolve
 from ...io.atomic import atomic_write_all, make_temporary_dir, temporary_prefix
 from ...io.formats import check_range, format_of, preview_stripes, stripe_writer
+from ...io.progress import progress_bar
 from ...io.safety import check_target
 from ...io.sources import open_source
 from ...matching.pipeline import is_row_local, match_rows
 from ...matching.setup import set_up
-from ..executor import progress_bar, run_tasks
+from ..executor import run_tasks
 from .plan import Plan, input_band, map_band, parse_size, plan
 from .tasks import create_store, filter_stripe, match_stripe, store_blocks
 

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import safety
-from .images import ImageError, luma, read_colour, read_image
+from ..io import safety
+from ..io.images import ImageError, luma, read_colour, read_image
 
 LOG_SUFFIXES = (".bag", ".mcap", ".db3")
 IMAGE = "sensor_msgs/msg/Image"

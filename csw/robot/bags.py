@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import safety
-from .atomic import make_temporary_dir
+from ..io import safety
+from ..io.atomic import make_temporary_dir
 from .logs import LogError
 
 # PointField's datatype for float32.
