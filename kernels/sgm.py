@@ -13,7 +13,11 @@ the paths up every row below, so the rows are swept twice, exactly:
                  from the kept state (adding into the band's sums), the up paths from
                  the band below, then each row's two horizontal paths and its winner
 
-A pair of at most one band skips pass 1.  Every core works on one band at a time: the
+A pair of at most one band skips pass 1.  With 5 paths (left, right, down and the two
+diagonals going down, OpenCV's MODE_SGBM's) every path comes from above or along the
+row, so one sweep down does it all: each band's costs, its paths and its winners, the
+paths' states carried to the next band; the bands are then made small enough to stay
+in the caches (SINGLE_PASS_BAND_BYTES).  Every core works on one band at a time: the
 costs and the rows' last step split the band's rows, the vertical paths its columns
 (each column's path is its own); the diagonal paths cross columns and run in one thread.
 Results do not depend on the bands or the threads: every split computes the same sums.
@@ -48,7 +52,7 @@ from .fast import keyed_range
 from .window import extra_maps, result
 from .workspace import output
 
-PATHS = (4, 8)
+PATHS = (4, 5, 8)
 COST_NAMES = {SAD: "sad", SSD: "ssd", SHD: "shd"}
 COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3  # the worker's steps (jit/sgm.py)
 
@@ -157,37 +161,56 @@ def variants(largest_window=31, largest_penalty=10**7):
 def memory(height, width, ndisp, window, paths, threads, band_bytes=None, slots=None):
     """Bytes a match_sgm of a pair this size holds beyond its images and maps, at most
     (32-bit sums): the band's slabs, the paths' states and the down paths' states kept
-    at each band's start, and each thread's cost scratch (column sums and Hamming
-    costs' ring).  slots: a banded match's K (its slabs and states hold K, its states'
-    pads 2K + 4 more; its column sums the whole range; and its starts)."""
+    at each band's start (none in a single sweep: 5 paths), and each thread's cost
+    scratch (column sums and Hamming costs' ring).  slots: a banded match's K (its slabs
+    and states hold K, its states' pads 2K + 4 more; its column sums the whole range;
+    and its starts)."""
+    down, single = downward_paths(paths), paths == 5
+    states = 2 * down if single else 4 * down  # two buffers a path going down or up
     if slots is not None:
         state = width * (3 * slots + 4) * 4
-        rows = band_rows(height, width, slots, 8, state / width / slots, band_bytes)
-        kept = (math.ceil(height / rows) - 1) * (3 if paths == 8 else 1) * state
-        return rows * width * slots * 8 + 4 * 3 * state + kept + \
+        rows = band_rows(height, width, slots, 8, state / width / slots, band_bytes,
+                         single)
+        kept = 0 if single else (math.ceil(height / rows) - 1) * down * state
+        return rows * width * slots * 8 + states * state + kept + \
             threads * (width + window) * ndisp * 4 + height * width * 4
     state = width * (ndisp + 2) * 4
-    down = 3 if paths == 8 else 1
-    rows = band_rows(height, width, ndisp, 8, down * state / width / ndisp, band_bytes)
-    kept = (math.ceil(height / rows) - 1) * down * state
+    rows = band_rows(height, width, ndisp, 8, down * state / width / ndisp, band_bytes,
+                     single)
+    kept = 0 if single else (math.ceil(height / rows) - 1) * down * state
     scratch = threads * (width + window) * ndisp * (4 + window)
-    return rows * width * ndisp * 8 + 4 * down * state + kept + scratch
+    return rows * width * ndisp * 8 + states * state + kept + scratch
 
+
+def downward_paths(paths):
+    """The paths going down: the vertical one, and with 5 or 8 paths the two diagonals."""
+    return 1 if paths == 4 else 3
+
+
+# A single sweep's band (5 paths).  Each band restarts the window's cost sums and its
+# steps are calls of their own, so bands of tens of rows; slabs small enough for the
+# caches (a few rows) measured slower, not faster.
+SINGLE_PASS_BAND_BYTES = 64 << 20
 
 # Bands are at least this tall where the pair is cut (each band's steps are calls of
 # their own, a few tens of microseconds each).
 MIN_BAND_ROWS = 32
 
 
-def band_rows(height, width, ndisp, itemsize, kept_itemsize, band_bytes=None):
-    """Rows per band.  All of them where the whole pair's slabs (``itemsize``: their
-    bytes per (pixel, d) together) fit in band_bytes (None: BAND_BYTES): one band, no
-    first pass.  Otherwise the height that holds the least memory, slabs and kept states
-    together (``kept_itemsize``: a kept state's bytes per (column, d)): B rows of slabs
-    and H / B kept rows, least at B = sqrt(H * kept / slab), so that memory grows with
-    the square root of the height; at least MIN_BAND_ROWS."""
+def band_rows(height, width, ndisp, itemsize, kept_itemsize, band_bytes=None,
+              single_pass=False):
+    """Rows per band.  A single sweep's (``single_pass``: 5 paths, no state kept between
+    passes): as many as fit SINGLE_PASS_BAND_BYTES (or band_bytes where less).
+    Otherwise all of them where the whole pair's slabs (``itemsize``: their bytes per
+    (pixel, d) together) fit in band_bytes (None: BAND_BYTES): one band, no first pass;
+    else the height that holds the least memory, slabs and kept states together
+    (``kept_itemsize``: a kept state's bytes per (column, d)): B rows of slabs and H / B
+    kept rows, least at B = sqrt(H * kept / slab), so that memory grows with the square
+    root of the height; at least MIN_BAND_ROWS."""
     band_bytes = BAND_BYTES if band_bytes is None else band_bytes
     per_row = width * ndisp * itemsize
+    if single_pass:
+        return int(max(1, min(height, min(band_bytes, SINGLE_PASS_BAND_BYTES) // per_row)))
     if height * per_row <= band_bytes:
         return height
     best = max(MIN_BAND_ROWS, round(math.sqrt(height * kept_itemsize / itemsize)))
@@ -203,7 +226,8 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
 
     left, right: uint8 or uint16 (H, W), same shape and dtype.  window, dmin, dmax,
     cost, census_window, census_pattern: as for the local engines (the window sums the
-    costs before aggregation; 1 aggregates each pixel's own).  paths: 4 or 8.  p1, p2:
+    costs before aggregation; 1 aggregates each pixel's own).  paths: 4, 5 (one sweep
+    down) or 8.  p1, p2:
     the penalties, whole numbers, 0 <= P1 <= P2.  extras, right_map, lr_check, threads,
     into: as for kernels.fast.match_fast.  band_bytes: a band's memory (tests make it
     small to cut many bands; None: BAND_BYTES); workspace is not used (the bands are
@@ -280,11 +304,12 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     checked = s.lr_check >= 0
     lr_valid = output(into, "lr_valid", (height, width), np.uint8) if checked else \
         np.empty((1, width), np.uint8)
-    down = 3 if paths == 8 else 1
+    single_pass = paths == 5
     pad = pad_of(ndisp, banded)
     rows_per_band = band_rows(height, width, ndisp,
                               acc.itemsize + cost_type(cmax, acc).itemsize,
-                              down * acc.itemsize * (ndisp + 2 * pad) / ndisp, band_bytes)
+                              downward_paths(paths) * acc.itemsize * (ndisp + 2 * pad) / ndisp,
+                              band_bytes, single_pass)
     bands = [(y0, min(y0 + rows_per_band, height)) for y0 in range(0, height, rows_per_band)]
     costs = np.empty((rows_per_band, width, ndisp), cost_type(cmax, acc))
     sums = np.empty((rows_per_band, width, ndisp), acc)
@@ -297,11 +322,13 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         return state, np.zeros((2, width), acc)
 
     down, down_mins = fresh_state()
-    up, up_mins = fresh_state()
-    diagonals = paths == 8
+    diagonals = paths != 4
     if diagonals:
         down_l, down_l_mins = fresh_state()
         down_r, down_r_mins = fresh_state()
+    if not single_pass:
+        up, up_mins = fresh_state()
+    if paths == 8:
         up_l, up_l_mins = fresh_state()
         up_r, up_r_mins = fresh_state()
     dummy3 = np.empty((1, 1, 1), acc)
@@ -368,33 +395,45 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                                        stop=stop)),
             1, 1, 0)
 
-    kept = {}  # band start -> the down paths' states entering the band
-    for y0, y1 in bands[:-1]:  # pass 1
-        rows_step(COSTS, y0, y1, cost_scratch)
-        vertical(y0, y1, down, down_mins, 1, 2)
-        if diagonals:
-            diagonal(y0, y1, ((down_l, down_l_mins), (down_r, down_r_mins)), 1, 2)
-        kept[y1] = [a[0].copy() for a in ((down, down_mins) + (
-            (down_l, down_l_mins, down_r, down_r_mins) if diagonals else ()))]
-    for y0, y1 in reversed(bands):  # pass 2
-        rows_step(COSTS, y0, y1, cost_scratch)
-        if y0 in kept:
-            states = (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
-                                          if diagonals else ())
-            for array, saved in zip(states, kept.pop(y0), strict=True):
-                array[0] = saved
-        elif y0 > 0:
-            raise AssertionError("a band's down state was not kept")
-        else:
-            for array in (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
-                                              if diagonals else ()):
-                _reset(array, pad)
-        vertical(y0, y1, down, down_mins, 1, 0)
-        vertical(y0, y1, up, up_mins, -1, 1)
-        if diagonals:
+    def two_passes(bands):
+        """Pass 1 down, keeping the down paths' states where each band starts; pass 2
+        up, each band's paths and winners (see above)."""
+        kept = {}  # band start -> the down paths' states entering the band
+        for y0, y1 in bands[:-1]:  # pass 1
+            rows_step(COSTS, y0, y1, cost_scratch)
+            vertical(y0, y1, down, down_mins, 1, 2)
+            if diagonals:
+                diagonal(y0, y1, ((down_l, down_l_mins), (down_r, down_r_mins)), 1, 2)
+            kept[y1] = [a[0].copy() for a in ((down, down_mins) + (
+                (down_l, down_l_mins, down_r, down_r_mins) if diagonals else ()))]
+        for y0, y1 in reversed(bands):  # pass 2
+            rows_step(COSTS, y0, y1, cost_scratch)
+            if y0 in kept:
+                states = (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
+                                              if diagonals else ())
+                for array, saved in zip(states, kept.pop(y0), strict=True):
+                    array[0] = saved
+            elif y0 > 0:
+                raise AssertionError("a band's down state was not kept")
+            else:
+                for array in (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
+                                                  if diagonals else ()):
+                    _reset(array, pad)
+            vertical(y0, y1, down, down_mins, 1, 0)
+            vertical(y0, y1, up, up_mins, -1, 1)
+            if diagonals:
+                diagonal(y0, y1, ((down_l, down_l_mins), (down_r, down_r_mins)), 1, 1)
+                diagonal(y0, y1, ((up_l, up_l_mins), (up_r, up_r_mins)), -1, 1)
+            rows_step(SELECT, y0, y1, select_scratch)
+
+    if single_pass:  # the states go down from band to band
+        for y0, y1 in bands:
+            rows_step(COSTS, y0, y1, cost_scratch)
+            vertical(y0, y1, down, down_mins, 1, 0)
             diagonal(y0, y1, ((down_l, down_l_mins), (down_r, down_r_mins)), 1, 1)
-            diagonal(y0, y1, ((up_l, up_l_mins), (up_r, up_r_mins)), -1, 1)
-        rows_step(SELECT, y0, y1, select_scratch)
+            rows_step(SELECT, y0, y1, select_scratch)
+    else:
+        two_passes(bands)
     if rows.size != height:  # the rows asked for, of the paths through every row
         disp, min_cost = disp[rows], min_cost[rows]
         *maps, lr_valid = (m[rows] if m.shape[0] == height else m for m in (*maps, lr_valid))

@@ -289,6 +289,7 @@ def remap_bilinear(image, map_x, map_y):
 # Semi-global matching, brute force over the whole volume (see kernels/jit/sgm.py).
 
 SGM_PATHS = {4: ((0, 1), (0, -1), (1, 0), (-1, 0)),
+             5: ((0, 1), (0, -1), (1, 0), (1, 1), (1, -1)),
              8: ((0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1))}
 
 

@@ -213,8 +213,10 @@ OPTIONS = {o.name: o for o in [
     Option("aggregate", "choice", "none", choices=("none", "sgm"), stage=True,
            help="sgm: semi-global matching, the window costs aggregated along paths "
                 "(Hirschmueller's), for maps dense where local windows leave holes."),
-    Option("sgm_paths", "int", 4, choices=(4, 8), stage=True,
-           help="Semi-global paths: 4 (left, right, up, down) or 8 (and the diagonals)."),
+    Option("sgm_paths", "int", 4, choices=(4, 5, 8), stage=True,
+           help="Semi-global paths: 4 (left, right, up, down), 5 (left, right, down and the "
+                "two diagonals going down, as OpenCV SGBM's default: one sweep, no second "
+                "pass) or 8 (all of them)."),
     Option("sgm_p1", "auto_int", None, low=0, high=10**7, stage=True,
            default_text="scaled to the cost: a quarter of the census bits per window pixel, "
                         "8 per window pixel for SAD",

@@ -45,7 +45,7 @@ def one_row_bands(left, dmin, dmax, itemsize=3):
 
 @pytest.mark.parametrize("cost", ["sad", "ssd", "shd", "census"])
 @pytest.mark.parametrize("window", [1, 3])
-@pytest.mark.parametrize("paths", [4, 8])
+@pytest.mark.parametrize("paths", [4, 5, 8])
 def test_every_cost_window_and_path_count(cost, window, paths):
     rng = np.random.default_rng(len(cost) * 10 + window + paths)
     left, right = pair(rng, 9, 14)
@@ -55,7 +55,7 @@ def test_every_cost_window_and_path_count(cost, window, paths):
                              paths=paths, p1=p1, p2=p2)
 
 
-@pytest.mark.parametrize("paths", [4, 8])
+@pytest.mark.parametrize("paths", [4, 5, 8])
 @pytest.mark.parametrize("threads", [1, 2])
 def test_bands_and_threads_change_nothing(paths, threads):
     """Bands of one, two and all rows, one thread or two: the same sums, bit for bit."""
@@ -77,7 +77,7 @@ def random_starts(rng, shape, ndisp, slots):
 
 @pytest.mark.parametrize("cost", ["sad", "census"])
 @pytest.mark.parametrize("window", [1, 3])
-@pytest.mark.parametrize("paths", [4, 8])
+@pytest.mark.parametrize("paths", [4, 5, 8])
 def test_narrowed_search_every_cost_window_and_path_count(cost, window, paths):
     """Each pixel its own slots: the kernels meet the oracle's shifted paths."""
     rng = np.random.default_rng(len(cost) * 10 + window + paths + 1)
@@ -126,7 +126,7 @@ def test_sixteen_bit_pixels_take_32_bit_sums():
 @settings(deadline=None, max_examples=20)
 @given(seed=st.integers(0, 2**31), height=st.integers(1, 7), width=st.integers(3, 12),
        span=st.integers(0, 5), dmin=st.integers(-3, 3), p1=st.integers(0, 30),
-       extra=st.integers(0, 200), paths=st.sampled_from([4, 8]),
+       extra=st.integers(0, 200), paths=st.sampled_from([4, 5, 8]),
        rows_per_band=st.integers(1, 8))
 def test_random_shapes_ranges_and_penalties(seed, height, width, span, dmin, p1, extra,
                                             paths, rows_per_band):
@@ -145,7 +145,7 @@ def test_no_penalty_is_local_matching(cost, window):
     costs times the paths."""
     rng = np.random.default_rng(3)
     left, right = pair(rng, 10, 15)
-    for paths in (4, 8):
+    for paths in (4, 5, 8):
         got = sgm.match_sgm(left, right, window=window, dmin=0, dmax=6, cost=cost,
                             paths=paths, p1=0, p2=0, **CENSUS)
         local = kernels.match(left, right, engine="fast", window=window, dmin=0, dmax=6,
@@ -184,7 +184,7 @@ def test_real_pair_crop(data_dir):
 
 
 @pytest.mark.parametrize("bad,message", [
-    (dict(paths=5), "paths must be one of 4, 8"),
+    (dict(paths=6), "paths must be one of 4, 5, 8"),
     (dict(p1=10, p2=5), "must not exceed P2"),
     (dict(p1=-1), "P1 must be a whole number"),
     (dict(csw=True), "no CSW"),

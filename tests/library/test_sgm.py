@@ -86,7 +86,7 @@ def test_threads_and_bands_change_nothing_in_the_pipeline(monkeypatch):
     (dict(preset="accurate", sgm_p1=4), "applies only with aggregate='sgm'"),
     (dict(aggregate="sgm", sgm_p1=9, sgm_p2=3), "must not exceed"),
     (dict(aggregate="sgm", engine="window"), "computes its own costs"),
-    (dict(aggregate="sgm", sgm_paths=5), "sgm_paths must be one of 4, 8"),
+    (dict(aggregate="sgm", sgm_paths=6), "sgm_paths must be one of 4, 5, 8"),
     (dict(preset="accurate", sgm_narrow=24), "applies only with aggregate='sgm'"),
     (dict(aggregate="sgm", sgm_narrow=-1), "sgm_narrow"),
 ])
