@@ -58,6 +58,8 @@ CSW = {
     CAMERA: dict(preset="camera"),
     # The narrowed search (docs/engines.md): a half-size pass, then 32 disparities a pixel.
     "csw sgm, narrowed to 32": dict(preset="sgm", sgm_narrow=32),
+    # OpenCV SGBM's 5 paths: one sweep down, no second pass (docs/engines.md).
+    "csw sgm, 5 paths": dict(preset="sgm", sgm_paths=5),
     # The default's census before it became sparse 9x9: what that change traded.
     "csw accurate, dense 7x7 census": dict(preset="accurate", census_window=7,
                                            census_pattern="dense"),
