@@ -3,6 +3,8 @@ the csw command line that reruns a library call (printed in the reports)."""
 
 import datetime
 import platform
+import re
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -22,6 +24,30 @@ def cpu_name():
     except OSError:
         pass
     return platform.processor() or "unknown CPU"
+
+
+def spread(values, digits=2):
+    """min / median / max of a list of figures, for a Markdown table."""
+    return " / ".join(f"{v:.{digits}f}" for v in (min(values), statistics.median(values),
+                                                  max(values)))
+
+
+TEMPLATES = Path(__file__).resolve().parent / "templates"
+
+
+def template_blocks(name):
+    """The blocks of scripts/templates/NAME.md, by name: each starts after a line
+    ``<!-- block -->`` and is a str.format template, its fields the report's figures."""
+    parts = re.split(r"^<!-- (\w+) -->\n", (TEMPLATES / f"{name}.md").read_text(),
+                     flags=re.MULTILINE)
+    return dict(zip(parts[1::2], parts[2::2], strict=True))
+
+
+def fill_template(name, blocks):
+    """The report from template NAME: each (block, fields) of ``blocks`` in turn, its
+    fields filled in; a report leaves out the blocks it has no figures for."""
+    text = template_blocks(name)
+    return "".join(text[block].format(**fields) for block, fields in blocks)
 
 
 def fmt(value, digits=2):

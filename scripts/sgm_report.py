@@ -34,7 +34,13 @@ from csw.data.synth import render  # noqa: E402
 from csw.io import read_disparity  # noqa: E402
 from csw.kernels.store import target_cpu  # noqa: E402
 from csw.scale.tiled import match_tiled  # noqa: E402
-from report_common import cpu_name, now_utc, peak_memory_mb  # noqa: E402
+from report_common import (  # noqa: E402
+    cpu_name,
+    fill_template,
+    now_utc,
+    peak_memory_mb,
+    spread,
+)
 
 PRESET = "sgm"
 
@@ -42,10 +48,6 @@ PRESET = "sgm"
 def kitti_pair(data_dir):
     pair = layouts.find_scene(Path(data_dir) / "kitti2015", "000000_10").load()
     return pair.left, pair.right  # read as gray
-
-
-def spread(values):
-    return f"{min(values):.2f} / {statistics.median(values):.2f} / {max(values):.2f}"
 
 
 def timed(call):
@@ -157,51 +159,10 @@ def main():
     peak = peak_memory_mb(["--preset", PRESET, "--dmin", "0"])
     with tempfile.TemporaryDirectory() as work:
         stripe_rows = stripes(work)
-    text = f"""# Semi-global matching: speed, memory and stripes
-
-Made by `make bench-sgm` ({now_utc()}) on {cpu_name()} (LLVM's `{target_cpu()}`), 2 cores.
-csw's `sgm` preset is census 9x9 sparse codes over a 5x5 window, 4 paths, left-right
-check, subpixel, speckle and median filters (docs/pipeline.md); its accuracy against
-SGBM and StereoBM is in [quality.md](quality.md).  SGBM is MODE_SGBM with OpenCV's
-sample settings (block 5, P1 8·25, P2 32·25); StereoBM 9x9.
-
-## 1. Speed
-
-The whole csw.match call (costs, aggregation, every stage) against each peer's
-compute(), in one process, interleaved, {args.rounds} rounds after a warm-up.  Ratio:
-each round's time over SGBM's one-thread time in that round (min / median / max).  M/s
-per core: million disparity evaluations (W x H x D) a second, per thread used.  "narrowed
-to 32" is `--sgm-narrow 32` (docs/engines.md): a half-size pass, then 32 disparities a
-pixel at full size (off by default: it raises Middlebury 2014's filled bad, quality.md).
-"5 paths" is `--sgm-paths 5`, OpenCV SGBM's own paths: one sweep down, no second pass
-(off by default: it raises KITTI's filled D1 from 5.07% to 7.58%, docs/engines.md).
-
-| pair | method | median ms | ratio to SGBM (1 thread) | M/s per core |
-|---|---|---|---|---|
-{chr(10).join(rows)}
-
-## 2. Streams, 640 x 480, d 0..63, 2 threads each
-
-Matcher.stream with the sgm preset against SGBM over the same 24 frames,
-{args.rounds} rounds: csw {spread(ours)} frames/s, SGBM {spread(theirs)} frames/s,
-ratio {spread(ratios)}.
-
-## 3. Memory
-
-Peak RSS of the whole `csw match --preset sgm` process on the 1080p pair, d 0..255, all
-threads: {peak:.0f} MB (target: at most 500).  The volume (1920 x 1080 x 256 sums) would
-be 1 GB in 16 bits; the bands hold about 100 MB of it (docs/engines.md).
-
-## 4. Stripes
-
-csw.match_tiled in row stripes, each with 64 rows more each side, against one whole-image
-match of a 2000 x 2000 synthetic pair, d 0..127: the share of pixels whose disparity
-differs (semi-global paths cross every row, so a stripe's edge rows see less of them).
-
-| stripe rows | stripes | pixels that differ (%) |
-|---|---|---|
-{chr(10).join(stripe_rows)}
-"""
+    text = fill_template("sgm", [("report", dict(
+        date=now_utc(), cpu=cpu_name(), llvm_cpu=target_cpu(), rounds=args.rounds,
+        speed_rows="\n".join(rows), ours=spread(ours), theirs=spread(theirs),
+        ratios=spread(ratios), peak=peak, stripe_rows="\n".join(stripe_rows)))])
     Path(args.output).write_text(text)
     print(f"wrote {args.output}")
 

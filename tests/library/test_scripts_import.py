@@ -18,3 +18,43 @@ def test_every_report_script_imports(path, monkeypatch):
     module = importlib.util.module_from_spec(spec)
     monkeypatch.setitem(sys.modules, spec.name, module)
     spec.loader.exec_module(module)  # module level only: each runs under __main__
+
+
+def load_script(name, monkeypatch):
+    path = SCRIPTS / f"{name}.py"
+    monkeypatch.syspath_prepend(str(SCRIPTS))
+    spec = importlib.util.spec_from_file_location(f"_script_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, spec.name, module)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_stream_report_rewritten_from_its_figures_is_the_committed_one(monkeypatch):
+    """The report's prose is scripts/templates/stream.md; its figures, reports/stream.json.
+    Filled in again, they give reports/stream.md as committed (OpenCV's version is the
+    one recorded there)."""
+    report = load_script("stream_report", monkeypatch)
+    committed = (SCRIPTS.parent / "reports" / "stream.md").read_text()
+    data = __import__("json").loads((SCRIPTS.parent / "reports" / "stream.json").read_text())
+    data["notes"] = report.notes(data)
+    version = committed.split("; OpenCV ", 1)[1].split(".\n", 1)[0]
+    monkeypatch.setattr(report.cv2, "__version__", version)
+    assert report.markdown(data) == committed
+
+
+def test_every_template_block_is_used_and_every_field_filled(monkeypatch):
+    """A block the code never fills, or a field it leaves out, fails here rather than at
+    the next (long) report run."""
+    common = load_script("report_common", monkeypatch)
+    import string
+
+    for template in sorted((SCRIPTS / "templates").glob("*.md")):
+        blocks = common.template_blocks(template.stem)
+        assert blocks, template
+        for name, text in blocks.items():
+            fields = {f for _, f, _, _ in string.Formatter().parse(text) if f}
+            script = (SCRIPTS / f"{template.stem}_report.py").read_text()
+            assert f'"{name}"' in script, f"{template.name}: block {name} is never used"
+            for field in fields:
+                assert f"{field}=" in script, f"{template.name}: {{{field}}} is never filled"
