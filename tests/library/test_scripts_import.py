@@ -44,17 +44,21 @@ def test_the_stream_report_rewritten_from_its_figures_is_the_committed_one(monke
 
 
 def test_every_template_block_is_used_and_every_field_filled(monkeypatch):
-    """A block the code never fills, or a field it leaves out, fails here rather than at
-    the next (long) report run."""
+    """Each template is filled by one script (fill_template("NAME", ...)); a block that
+    script never names, or a field it never sets, fails here rather than at the next
+    (long) report run."""
     common = load_script("report_common", monkeypatch)
     import string
 
+    scripts = {path: path.read_text() for path in SCRIPTS.glob("*.py")}
     for template in sorted((SCRIPTS / "templates").glob("*.md")):
+        users = [text for text in scripts.values()
+                 if f'fill_template("{template.stem}"' in text]
+        assert len(users) == 1, f"{template.name} is filled by {len(users)} scripts"
         blocks = common.template_blocks(template.stem)
         assert blocks, template
         for name, text in blocks.items():
-            fields = {f for _, f, _, _ in string.Formatter().parse(text) if f}
-            script = (SCRIPTS / f"{template.stem}_report.py").read_text()
-            assert f'"{name}"' in script, f"{template.name}: block {name} is never used"
-            for field in fields:
-                assert f"{field}=" in script, f"{template.name}: {{{field}}} is never filled"
+            assert f'"{name}"' in users[0], f"{template.name}: block {name} is never used"
+            for field in {f for _, f, _, _ in string.Formatter().parse(text) if f}:
+                assert f"{field}=" in users[0], \
+                    f"{template.name}: {{{field}}} is never filled"
