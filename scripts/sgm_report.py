@@ -18,6 +18,7 @@ Usage: python scripts/sgm_report.py --output reports/sgm.md [--rounds N]
 import argparse
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -30,11 +31,12 @@ import numpy as np  # noqa: E402
 import csw  # noqa: E402
 import peers  # noqa: E402
 from csw.data import layouts  # noqa: E402
-from csw.data.synth import render  # noqa: E402
+from csw.data.synth import render, write_tiff_scene  # noqa: E402
 from csw.io import read_disparity  # noqa: E402
 from csw.kernels.store import target_cpu  # noqa: E402
 from csw.scale.tiled import match_tiled  # noqa: E402
 from report_common import (  # noqa: E402
+    PEAK_PROBE,
     cpu_name,
     fill_template,
     now_utc,
@@ -143,6 +145,23 @@ def stripes(work):
     return rows
 
 
+BIG_SIDE, BIG_DMAX = 8000, 64
+
+
+def big_striped(work):
+    """(peak RSS in MB, seconds) of `csw match` on an 8000 x 8000 synthetic TIFF pair,
+    d 0..64, the sgm preset and the default memory limit, in a process of its own: row
+    stripes (a TIFF map is written in stripes), all threads."""
+    folder = Path(work) / "big"
+    write_tiff_scene(folder, BIG_SIDE, BIG_SIDE, BIG_DMAX, seed=0)
+    cmd = ["csw", "match", str(folder / "left.tif"), str(folder / "right.tif"), "-o",
+           str(folder / "d.tif"), "--preset", PRESET, "--dmax", str(BIG_DMAX)]
+    start = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", PEAK_PROBE, *cmd], check=True,
+                         capture_output=True, text=True)
+    return int(out.stdout.strip()) / 1024, time.perf_counter() - start
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output", default="reports/sgm.md")
@@ -159,10 +178,12 @@ def main():
     peak = peak_memory_mb(["--preset", PRESET, "--dmin", "0"])
     with tempfile.TemporaryDirectory() as work:
         stripe_rows = stripes(work)
+        big_peak, big_seconds = big_striped(work)
     text = fill_template("sgm", [("report", dict(
         date=now_utc(), cpu=cpu_name(), llvm_cpu=target_cpu(), rounds=args.rounds,
         speed_rows="\n".join(rows), ours=spread(ours), theirs=spread(theirs),
-        ratios=spread(ratios), peak=peak, stripe_rows="\n".join(stripe_rows)))])
+        ratios=spread(ratios), peak=peak, stripe_rows="\n".join(stripe_rows), side=BIG_SIDE,
+        big_dmax=BIG_DMAX, big_peak=big_peak, big_seconds=big_seconds))])
     Path(args.output).write_text(text)
     print(f"wrote {args.output}")
 
