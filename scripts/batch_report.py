@@ -112,7 +112,7 @@ def markdown(runs, pairs, long_pairs, long, date, cpu, cores, version):
     the last (main process, workers); the long batch's rate and RSS at 2000 and at the
     end."""
     marks = [100, pairs]
-    rows, notes = [], []
+    rows, growths = [], []
     for r in runs:
         memory = r["memory"]
         overhead = [p - m for p, m in zip(r["pair_s"], r["match_s"], strict=True)]
@@ -127,8 +127,8 @@ def markdown(runs, pairs, long_pairs, long, date, cpu, cores, version):
                     + (", ".join(f"{a:.0f} → {b:.0f} ({g:+.1f}%)" for a, b, g in
                                  zip(memory[marks[0]][1], memory[marks[1]][1],
                                      worker_growth, strict=True)) or "–") + " |")
-        notes.append((r["label"], main_growth, worker_growth))
-    flat = all(abs(g) < 10 for _, m, w in notes for g in [m, *w])
+        growths.append((main_growth, worker_growth))
+    flat = all(abs(g) < 10 for m, w in growths for g in [m, *w])
     table = ["| run | pairs/s | match (ms) | overhead per pair (ms) | main RSS MB, 100 → "
              f"{pairs} | worker RSS MB, 100 → {pairs} |", "|---|---|---|---|---|---|", *rows]
     long_table = ["| pairs/s | main RSS MB at pair 2000 | at the last | growth |",

@@ -138,7 +138,7 @@ def markdown(figures):
     measurements, each a list of seconds (or MB) over the runs."""
     f = figures
 
-    def gap(values, digits=2):  # min/median/max, tight: these tables have many columns
+    def gap(values, digits=2):  # min/median/max with no spaces, as this report writes them
         return spread(values, digits, sep="/")
 
     presets = ["| pair | preset | cache | csw (s) | OpenCV script (s) | csw / OpenCV | "
