@@ -25,7 +25,7 @@ from csw.camera import calibrate as cal
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from report_common import now_utc  # noqa: E402
+from report_common import fill_template, now_utc  # noqa: E402
 
 FLAGS = {"radtan": 0, "rational": cv2.CALIB_RATIONAL_MODEL}
 
@@ -118,34 +118,41 @@ def main():
                 close.append(((diff <= 1) & valid).sum() / valid.sum())
         rows.append((alpha, *row_rms(ours, board), *row_rms(theirs, board),
                      100 * float(np.mean(close)), 100 * float(np.min(close))))
-    lines = [
-        "# csw calibrate against OpenCV's chain", "",
-        f"Made by `python scripts/calibrate_report.py` (`make bench-calibrate`), {now_utc()}, "
-        f"OpenCV {cv2.__version__}: {args.label}, {len(pairs)} pairs, "
-        f"{size[0]}x{size[1]}, a {args.board} board, model {args.model}.", "",
-        f"`csw calibrate --manifest pairs.csv --board {args.board} --square 1 --model "
-        f"{args.model} -o rig.yml` said:",
-        "", "```", *said, "```", "",
+    text = markdown(dict(
+        date=now_utc(), opencv=cv2.__version__, label=args.label, pairs=len(pairs), size=size,
+        board=args.board, model=args.model, said=said, result_rms=result_rms, rms=rms,
+        baseline=rig.baseline, opencv_baseline=np.linalg.norm(t), rows=rows))
+    Path(args.output).write_text(text)
+    print(text)
+
+
+def markdown(figures):
+    """The report's text (scripts/templates/calibrate.md) from its figures; rows are
+    (alpha, csw row RMS, its pairs, OpenCV's, its pairs, mean and worst share of pixels
+    within 1 gray level of cv2.remap's)."""
+    result_rms, rms = figures["result_rms"], figures["rms"]
+    gap = abs(result_rms - rms)
+    calibration = [
         "| | csw calibrate | cv2.stereoCalibrate, same flags, same corners | difference |",
         "|---|---|---|---|",
-        f"| reprojection RMS (px) | {result_rms:.4f} | {rms:.4f} | {abs(result_rms - rms):.4f} "
-        f"(target <= 0.05: **{'met' if abs(result_rms - rms) <= 0.05 else 'not met'}**) |",
-        f"| baseline (squares) | {rig.baseline:.4f} | {np.linalg.norm(t):.4f} | |", "",
-        "Corner row error after rectification (the corners found again in the rectified "
-        "images; csw: `csw rectify` with csw calibrate's rig, OpenCV: stereoRectify + "
-        "initUndistortRectifyMap + remap with its own calibration), and csw's rectified "
-        "images against cv2.remap with OpenCV's fixed-point maps of the same rig "
-        "(pixels with a source within 1 gray level):", "",
-        "| alpha | csw (px, pairs) | OpenCV (px, pairs) | csw - OpenCV | within 1 gray level: "
-        "mean, worst image |", "|---|---|---|---|---|"]
-    for alpha, ours, n_ours, theirs, n_theirs, mean_close, worst_close in rows:
+        f"| reprojection RMS (px) | {result_rms:.4f} | {rms:.4f} | {gap:.4f} "
+        f"(target <= 0.05: **{'met' if gap <= 0.05 else 'not met'}**) |",
+        f"| baseline (squares) | {figures['baseline']:.4f} | "
+        f"{figures['opencv_baseline']:.4f} | |"]
+    rectify = ["| alpha | csw (px, pairs) | OpenCV (px, pairs) | csw - OpenCV | within 1 gray "
+               "level: mean, worst image |", "|---|---|---|---|---|"]
+    for alpha, ours, n_ours, theirs, n_theirs, mean_close, worst_close in figures["rows"]:
         gap = ours - theirs
-        lines.append(f"| {alpha:g} | {ours:.3f} ({n_ours}) | {theirs:.3f} ({n_theirs}) | "
-                     f"{gap:+.3f} (target <= 0.03: **{'met' if gap <= 0.03 else 'not met'}**)"
-                     f" | {mean_close:.3f}%, {worst_close:.3f}% |")
-    lines.append("")
-    Path(args.output).write_text("\n".join(lines))
-    print("\n".join(lines))
+        rectify.append(f"| {alpha:g} | {ours:.3f} ({n_ours}) | {theirs:.3f} ({n_theirs}) | "
+                       f"{gap:+.3f} (target <= 0.03: **{'met' if gap <= 0.03 else 'not met'}**)"
+                       f" | {mean_close:.3f}%, {worst_close:.3f}% |")
+    width, height = figures["size"]
+    # The said lines are never empty: the reprojection RMS is read from them.
+    return fill_template("calibrate", [("report", dict(
+        date=figures["date"], opencv=figures["opencv"], label=figures["label"],
+        pairs=figures["pairs"], width=width, height=height, board=figures["board"],
+        model=figures["model"], said="\n".join(figures["said"]),
+        calibration_table="\n".join(calibration), rectify_table="\n".join(rectify)))])
 
 
 if __name__ == "__main__":

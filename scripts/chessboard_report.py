@@ -8,6 +8,7 @@ found in csw's rectified pairs, in OpenCV's, and in the raw ones: a markdown sec
 (make bench-rectify puts it in reports/rectify.md)."""
 
 import os
+import sys
 import tempfile
 from pathlib import Path
 
@@ -15,6 +16,9 @@ import cv2
 import numpy as np
 
 import csw
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from report_common import fill_template  # noqa: E402
 
 BOARD = (9, 6)
 
@@ -42,8 +46,7 @@ def section():
     """The report's section, as markdown text."""
     folder = os.environ.get("CSW_CHESSBOARD_DIR")
     if not folder or not Path(folder, "left01.jpg").is_file():
-        return ("## Real chessboard pairs\n\nNot run: set CSW_CHESSBOARD_DIR to a folder "
-                "holding OpenCV's stereo calibration sample (left01.jpg ... right14.jpg).\n")
+        return markdown(None)
     names = sorted(p.name[4:] for p in Path(folder).glob("left*.jpg"))
     raw = [(cv2.imread(str(Path(folder, "left" + n)), cv2.IMREAD_GRAYSCALE),
             cv2.imread(str(Path(folder, "right" + n)), cv2.IMREAD_GRAYSCALE)) for n in names]
@@ -59,13 +62,6 @@ def section():
     _, k1, d1, k2, d2, r, t, _, _ = cv2.stereoCalibrate(
         [board] * len(used), [a for a, _ in used], [b for _, b in used], k1, d1, k2, d2,
         size, flags=cv2.CALIB_FIX_INTRINSIC)
-    lines = ["## Real chessboard pairs", "",
-             f"OpenCV's stereo calibration sample ({len(raw)} pairs, {size[0]}x{size[1]}, a "
-             f"{BOARD[0]}x{BOARD[1]} board, corners found in both images of {len(used)}), "
-             "calibrated with cv2.stereoCalibrate and written as OpenCV's sample writes it "
-             "(M1 D1 M2 D2 R T); csw reads that file. RMS row difference of the corners "
-             "in both images of each pair:", "",
-             "| alpha | csw (px) | OpenCV's own chain (px) | raw (px) |", "|---|---|---|---|"]
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp, "stereo.yml")
         storage = cv2.FileStorage(str(path), cv2.FILE_STORAGE_WRITE)
@@ -75,6 +71,7 @@ def section():
         storage.release()
         rig = csw.read_rig(path, size=size)
     raw_rms, _ = row_rms(raw)
+    rows = []
     for alpha in (0.0, 1.0):
         rect = csw.Rectifier(rig, alpha=alpha)
         ours, n_ours = row_rms([rect.rectify(a, b) for a, b in raw])
@@ -86,10 +83,25 @@ def section():
         theirs, n_theirs = row_rms([tuple(cv2.remap(img, *m, cv2.INTER_LINEAR)
                                           for img, m in zip(pair, maps, strict=True))
                                     for pair in raw])
-        lines.append(f"| {alpha:g} | {ours:.3f} ({n_ours} pairs) | {theirs:.3f} "
-                     f"({n_theirs} pairs) | {raw_rms:.2f} |")
-    lines += ["", "Target: csw at most 0.03 px RMS above OpenCV's own rectification.", ""]
-    return "\n".join(lines)
+        rows.append((alpha, ours, n_ours, theirs, n_theirs))
+    return markdown(dict(pairs=len(raw), size=size, used=len(used), raw_rms=raw_rms,
+                         rows=rows))
+
+
+def markdown(figures):
+    """The section's text (scripts/templates/chessboard.md) from its figures: pairs, size,
+    used, raw_rms and rows of (alpha, csw rms, its pairs, OpenCV rms, its pairs); None
+    when the sample is not there."""
+    if figures is None:
+        return fill_template("chessboard", [("not_run", {})])
+    table = ["| alpha | csw (px) | OpenCV's own chain (px) | raw (px) |", "|---|---|---|---|"]
+    table += [f"| {alpha:g} | {ours:.3f} ({n_ours} pairs) | {theirs:.3f} "
+              f"({n_theirs} pairs) | {figures['raw_rms']:.2f} |"
+              for alpha, ours, n_ours, theirs, n_theirs in figures["rows"]]
+    width, height = figures["size"]
+    return fill_template("chessboard", [("report", dict(
+        pairs=figures["pairs"], width=width, height=height, board_columns=BOARD[0],
+        board_rows=BOARD[1], used=figures["used"], table="\n".join(table)))])
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ import imageio.v3 as iio
 import numpy as np
 
 from csw.eval.scoring import score
-from report_common import now_utc
+from report_common import fill_template, now_utc
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -56,11 +56,30 @@ def run_csw(out, name, *extra):
     return read_pfm(out / f"{name}.pfm"), done.stderr.strip().splitlines()
 
 
+def markdown(records, date):
+    """The report's text (scripts/templates/first-photo.md) from its figures, the records
+    reports/first-photo.json keeps."""
+    header = ["pair", "size", "GT range", "range found", "density found (%)",
+              "density GT range (%)", "diff", "bad-2 valid found (%)",
+              "bad-2 valid GT range (%)", "diff"]
+    table = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for r in records:
+        cells = [r["pair"], r["size"], r["gt_range"], r["found_range"],
+                 f"{r['density_found']:.2f}", f"{r['density_given']:.2f}",
+                 f"{r['density_found'] - r['density_given']:+.2f}",
+                 f"{r['bad2_found']:.2f}", f"{r['bad2_given']:.2f}",
+                 f"{r['bad2_found'] - r['bad2_given']:+.2f}"]
+        table.append("| " + " | ".join(cells) + " |")
+    return fill_template("first-photo", [("report", dict(
+        date=date, brighter=round((BRIGHTER - 1) * 100), quality=QUALITY,
+        table="\n".join(table)))])
+
+
 def main():
     import os
 
     root = Path(os.environ.get("CSW_DATA_DIR") or ROOT.parent / "shared" / "datasets")
-    rows, records = [], []
+    records = []
     with tempfile.TemporaryDirectory() as tmp:
         for label, sub, left_name, right_name, gt_name, scale in PAIRS:
             out = Path(tmp) / sub.replace("/", "-")
@@ -79,36 +98,10 @@ def main():
                       "bad2_found": a["bad_valid"][2.0], "bad2_given": b["bad_valid"][2.0],
                       "notes": [line for line in said if line.startswith("csw: ")]}
             records.append(record)
-            rows.append([label, record["size"], record["gt_range"], searched,
-                         f"{a['density']:.2f}", f"{b['density']:.2f}",
-                         f"{a['density'] - b['density']:+.2f}",
-                         f"{a['bad_valid'][2.0]:.2f}", f"{b['bad_valid'][2.0]:.2f}",
-                         f"{a['bad_valid'][2.0] - b['bad_valid'][2.0]:+.2f}"])
-    header = ["pair", "size", "GT range", "range found", "density found (%)",
-              "density GT range (%)", "diff", "bad-2 valid found (%)",
-              "bad-2 valid GT range (%)", "diff"]
-    text = [
-        "# A new user's first photos",
-        "",
-        f"Made by `make first-photo` (scripts/first_photo.py), {now_utc()}. Three pairs "
-        "that no test uses: the registered scenes' right views as the reference "
-        "(mirrored, with their own ground truth), the other image "
-        f"{round((BRIGHTER - 1) * 100)}% brighter, both "
-        f"JPEG at quality {QUALITY}. Each is matched as the README says, `csw match "
-        "left.jpg right.jpg -o d.pfm --preview p.png` with no range given, and again with "
-        "`--dmin 0 --dmax` the ground truth's largest disparity; both maps are scored with "
-        "the same code over every pixel with ground truth (bad-2 over the valid pixels).",
-        "",
-        "| " + " | ".join(header) + " |",
-        "|" + "---|" * len(header),
-        *("| " + " | ".join(row) + " |" for row in rows),
-        "",
-        "Target: density and bad-2 over valid within 1 point of the ground-truth range's.",
-        "",
-    ]
-    (ROOT / "reports" / "first-photo.md").write_text("\n".join(text))
+    text = markdown(records, now_utc())
+    (ROOT / "reports" / "first-photo.md").write_text(text)
     (ROOT / "reports" / "first-photo.json").write_text(json.dumps(records, indent=1) + "\n")
-    print("\n".join(text))
+    print(text)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,7 @@ from csw.scale.stream import match_log
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
-from report_common import cpu_name, now_utc  # noqa: E402
+from report_common import cpu_name, fill_template, now_utc  # noqa: E402
 
 WIDTH, HEIGHT, DMAX = 640, 480, 63
 DISTINCT = 12  # frames rendered, repeated through the log
@@ -195,61 +195,50 @@ def main():
                                                             args.rounds, args.preset)
         live, latencies = live_latency(folder, args.live_frames, 30, args.live_preset)
     memory = None if args.no_memory else memory_check()
-    lines = [
-        "# Robot logs: reading, streaming, memory",
-        "",
-        f"Measured {now_utc()} on {cpu_name()} (2 cores, shared with other work), by "
-        "`make bench-logs` (scripts/logs_report.py): medians of "
-        f"{args.rounds} rounds, the three streams run in turns; d 0..{DMAX}, the "
-        f"`{args.preset}` preset.",
-        "",
+    text = markdown(dict(
+        date=now_utc(), cpu=cpu_name(), rounds=args.rounds, preset=args.preset,
+        frames=args.frames, read_rect=read_rect, read_raw=read_raw, memory_fps=memory_fps,
+        log_fps=log_fps, whole_fps=whole_fps, memory=memory, live_preset=args.live_preset,
+        live_frames=args.live_frames, live=live, latencies=latencies))
+    Path(args.output).write_text(text)
+    print(text)
+
+
+def markdown(figures):
+    """The report's text (scripts/templates/logs.md) from its figures: main()'s
+    measurements; memory is None when the 10,000-frame check was skipped."""
+    f = figures
+    table = [
         "| what | measured | target |",
         "| --- | --- | --- |",
         f"| read + decode a {WIDTH}x{HEIGHT} stereo frame from MCAP (mono8, rectified "
-        f"topics; the stamps' first pass included) | {read_rect:.2f} ms | <= 2 ms |",
+        f"topics; the stamps' first pass included) | {f['read_rect']:.2f} ms | <= 2 ms |",
         f"| the same for raw topics, rectified with the rig from CameraInfo | "
-        f"{read_raw:.2f} ms | (rectifying is csw's remap) |",
-        f"| {args.frames} frames in memory, `csw.Matcher.stream` | {memory_fps:.1f} "
+        f"{f['read_raw']:.2f} ms | (rectifying is csw's remap) |",
+        f"| {f['frames']} frames in memory, `csw.Matcher.stream` | {f['memory_fps']:.1f} "
         "frames/s | |",
-        f"| the same frames from a {args.frames}-frame MCAP log, `csw.read_log` into "
-        f"`Matcher.stream` | {log_fps:.1f} frames/s ({100 * log_fps / memory_fps:.0f}%) "
-        "| >= 90% |",
+        f"| the same frames from a {f['frames']}-frame MCAP log, `csw.read_log` into "
+        f"`Matcher.stream` | {f['log_fps']:.1f} frames/s "
+        f"({100 * f['log_fps'] / f['memory_fps']:.0f}%) | >= 90% |",
         f"| the same log through `csw.match_log` (`csw match LOG -O DIR`), its 1.2 MB PFM "
-        f"maps and summary written | {whole_fps:.1f} frames/s "
-        f"({100 * whole_fps / memory_fps:.0f}%) | |",
+        f"maps and summary written | {f['whole_fps']:.1f} frames/s "
+        f"({100 * f['whole_fps'] / f['memory_fps']:.0f}%) | |",
     ]
+    memory = f["memory"]
     if memory is not None:
         peaks = memory["peaks_mb"]
-        lines.append(f"| peak RSS over a {MEMORY_FRAMES:,}-frame {memory['size']} log "
+        table.append(f"| peak RSS over a {MEMORY_FRAMES:,}-frame {memory['size']} log "
                      f"through Matcher.stream: at frame 1,000 / 10,000 | "
                      f"{peaks['1000']:.1f} / {peaks[str(MEMORY_FRAMES)]:.1f} MB "
                      f"({100 * memory['growth']:+.2f}%) | flat |")
-    lines += [
-        "",
-        "Reading a log is two passes: the first reads only each message's header stamp "
-        "(bytes 4..12, nothing decoded) to pair the frames, the second decodes the pairs "
-        "in order, so the log's messages are read from disk twice; the page cache keeps "
-        "that second read cheap for logs that fit memory. Decoding and rectifying run in "
-        "the thread that feeds `Matcher.stream`, while the frames in flight are matched "
-        "on the other threads; a whole run writes the maps behind, in a thread of their "
-        "own, as a video's run does.",
-        "",
-        "## A live stream",
-        "",
-        f"`csw match - --sbs --latest --preset {args.live_preset}` fed {args.live_frames:,} "
-        f"side-by-side frames ({WIDTH}x{HEIGHT} views, MJPEG) through a pipe at 30 "
-        "frames/s, each at its time, maps written as PFM (a video run's default): "
-        f"{live['counts']['ok']:,} matched, {live.get('dropped', 0):,} dropped to keep up. "
-        "Latency, from a frame's arrival to its map written, median (p99) over the first "
-        "and the last thousand frames matched: "
-        + " and ".join(f"{statistics.median(part):.1f} ({np.percentile(part, 99):.1f}) ms"
-                       for part in (latencies[:1000], latencies[-1000:]))
-        + f"; the target is a median under two frame periods ({2000 / 30:.1f} ms), with no "
-        "growth.",
-        "",
-    ]
-    Path(args.output).write_text("\n".join(lines))
-    print("\n".join(lines))
+    latencies = f["latencies"]
+    latency = " and ".join(f"{statistics.median(part):.1f} ({np.percentile(part, 99):.1f}) ms"
+                           for part in (latencies[:1000], latencies[-1000:]))
+    return fill_template("logs", [("report", dict(
+        date=f["date"], cpu=f["cpu"], rounds=f["rounds"], dmax=DMAX, preset=f["preset"],
+        table="\n".join(table), live_preset=f["live_preset"], live_frames=f["live_frames"],
+        width=WIDTH, height=HEIGHT, matched=f["live"]["counts"]["ok"],
+        dropped=f["live"].get("dropped", 0), latency=latency, two_periods=2000 / 30))])
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 from rig_fixtures import random_rig, raw_from_rectified  # noqa: E402
 
-from report_common import now_utc  # noqa: E402
+from report_common import fill_template, now_utc  # noqa: E402
 
 SIZE = (1920, 1080)
 REPEAT = 7
@@ -54,7 +54,22 @@ def met(ok):
 
 
 def spread(values):
+    # Not report_common.spread: reports/rectify.json keeps the three figures as numbers.
     return min(values), statistics.median(values), max(values)
+
+
+def markdown(rows, ratio, date, chessboard):
+    """The report's text (scripts/templates/rectify.md) from its figures, as
+    reports/rectify.json keeps them (rows: name -> min, median, max seconds; ratios), and
+    the chessboard section after it."""
+    table = ["| step | min (ms) | median (ms) | max (ms) |", "|---|---|---|---|"]
+    table += [f"| {name} | {lo * 1e3:.1f} | {mid * 1e3:.1f} | {hi * 1e3:.1f} |"
+              for name, (lo, mid, hi) in rows.items()]
+    return fill_template("rectify", [("report", dict(
+        date=date, width=SIZE[0], height=SIZE[1], repeat=REPEAT, table="\n".join(table),
+        remap=ratio["remap"], remap_met=met(ratio["remap"] <= 1.5), maps=ratio["maps"],
+        maps_met=met(ratio["maps"] <= 2), match=ratio["match"],
+        match_met=met(ratio["match"] <= 1.10)))]) + chessboard
 
 
 def main():
@@ -90,40 +105,13 @@ def main():
         "maps": rows["csw maps"][1] / rows["cv2 maps"][1],
         "match": rows["match with --rig"][1] / rows["match rectified"][1],
     }
-    lines = [
-        "# Rectification against OpenCV",
-        "",
-        f"Made by `make bench-rectify` (scripts/rectify_report.py), {now_utc()}: a "
-        f"{SIZE[0]}x{SIZE[1]} gray pair through a distorted, rotated rig; 1 thread each "
-        f"(cv2.setNumThreads(1)), interleaved, median of {REPEAT} after a warm-up.",
-        "",
-        "| step | min (ms) | median (ms) | max (ms) |",
-        "|---|---|---|---|",
-        *(f"| {name} | {lo * 1e3:.1f} | {mid * 1e3:.1f} | {hi * 1e3:.1f} |"
-          for name, (lo, mid, hi) in rows.items()),
-        "",
-        f"- The remap: {ratio['remap']:.2f}x cv2.remap's time (target <= 1.5x: "
-        f"{met(ratio['remap'] <= 1.5)}).",
-        f"- Building the maps: {ratio['maps']:.2f}x cv2.initUndistortRectifyMap's "
-        f"(target <= 2x: {met(ratio['maps'] <= 2)}; built once per rig and size).",
-        f"- Matching the raw pair with the rig: {ratio['match']:.2f}x matching the "
-        f"rectified pair (target <= 1.10x: {met(ratio['match'] <= 1.10)}; the default "
-        "preset, d 0..128).",
-        "",
-        "csw's remap reads maps made once per rig into source offsets and integer weights "
-        "(OpenCV's fixed point): four gathers and an integer blend a pixel, scalar code, "
-        "where cv2.remap converts its float maps on every call but blends with vector "
-        "instructions. Matching a raw pair pays two remaps on top of the match; with the "
-        "default threads the remap runs in parallel stripes like the other kernels.",
-        "",
-    ]
     from chessboard_report import section
 
-    lines.append(section())
-    (ROOT / "reports" / "rectify.md").write_text("\n".join(lines))
+    text = markdown(rows, ratio, now_utc(), section())
+    (ROOT / "reports" / "rectify.md").write_text(text)
     (ROOT / "reports" / "rectify.json").write_text(json.dumps(
         {"rows_seconds": rows, "ratios": ratio}, indent=1) + "\n")
-    print("\n".join(lines))
+    print(text)
 
 
 if __name__ == "__main__":

@@ -26,9 +26,9 @@ def cpu_name():
     return platform.processor() or "unknown CPU"
 
 
-def spread(values, digits=2):
+def spread(values, digits=2, sep=" / "):
     """min / median / max of a list of figures, for a Markdown table."""
-    return " / ".join(f"{v:.{digits}f}" for v in (min(values), statistics.median(values),
+    return sep.join(f"{v:.{digits}f}" for v in (min(values), statistics.median(values),
                                                   max(values)))
 
 

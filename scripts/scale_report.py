@@ -34,7 +34,7 @@ from csw.io import write_disparity, write_png  # noqa: E402
 from csw.matching.pipeline import filter_overlap  # noqa: E402
 from csw.scale.distributed import close, local_client  # noqa: E402
 from csw.scale.tiled import DEFAULT_MEMORY_LIMIT, match_tiled  # noqa: E402
-from report_common import cpu_name, now_utc  # noqa: E402
+from report_common import cpu_name, fill_template, now_utc  # noqa: E402
 
 HD = (1920, 1080)
 HD_DMAX = 255
@@ -208,6 +208,77 @@ def table(header, rows):
     return "\n".join(lines)
 
 
+def markdown(figures):
+    """The report's text (scripts/templates/scale.md) from main()'s figures: the batch
+    times per mode, the striping rows, the big pair's rows (the first row's last item is
+    its summary line) and its tasks, and the model's inputs."""
+    f = figures
+    cores, pairs, big, batch, stripes = (f["cores"], f["pairs"], f["big"], f["batch"],
+                                         f["stripes"])
+    bytes_per_pair, noop_rate, tasks = f["bytes_per_pair"], f["noop_rate"], f["tasks"]
+    here_s = batch["here (no Dask)"][0]
+    one_s = batch["1 worker"][0]
+    two_s = batch["2 workers"][0]
+    per_machine = pairs / two_s
+    seconds_per_pair = two_s / pairs
+    big_bytes = (tasks["bytes_read"] + tasks["bytes_written"]) / tasks["count"]
+    big_task_s = tasks["seconds"] / tasks["count"]
+    gain = here_s / two_s
+    big_rows = f["big_rows"]
+    big_rate = (big ** 2 / 1e6) / big_rows[1][2]  # Mpx/s on this machine
+    per_mpx_bytes = big_bytes * tasks["count"] / (big ** 2 / 1e6)
+    network_pairs = 1e9 / 8 / bytes_per_pair
+    pair_io_rate = bytes_per_pair / seconds_per_pair / 1e6  # MB per second of compute
+    stripe_io_rate = big_bytes / big_task_s / 1e6
+    model_header = ["1 Gbit/s shared", "10 Gbit/s shared"]
+    fields = dict(
+        date=f["date"], cpu=f["cpu"], cores=cores, version=f["version"], pairs=pairs,
+        hd_dmax=HD_DMAX, repeat=f["repeat"],
+        batch_table=table(["run", "batch (s)", "pairs/s", "vs here", "cluster start-up (s)"],
+                          [(mode, f"{s:.2f}", f"{pairs / s:.2f}", f"{here_s / s:.2f}x",
+                            f"{start:.1f}" if start else "") for mode, (s, start) in
+                           batch.items()]),
+        two_rate=pairs / two_s, here_rate=pairs / here_s, gain=gain, one_rate=pairs / one_s,
+        why=("a pair per core beats splitting each pair's rows between threads, which "
+             "leaves a core idle in the serial parts (reading and writing files, the "
+             "speckle filter's flood fill)" if gain > 1.05 else
+             "splitting each pair's rows between threads already keeps the cores busy"),
+        stripe_table=table(["preset", "run", "stripes", "extra rows matched",
+                            "filter overlap", "seconds", "vs whole"],
+                           [(p, label, n, f"{100 * share:.1f}%", f"{fo} rows" if fo else "",
+                             f"{s:.3f}", f"{r:.2f}x") for p, label, n, share, fo, s, r
+                            in stripes]),
+        default_accurate=next(r for p, label, *_, r in stripes
+                              if p == "accurate" and label.startswith("stripes, default")),
+        worst=max(r for *_, r in stripes), speckle_rows=f["speckle_rows"], big=big,
+        big_dmax=BIG_DMAX, big_mpx=big * big / 1e6,
+        generated=f" in {f['gen']:.0f} s" if f["gen"] else "",
+        map_gib=big * big * 4 / 2**30, limit_mib=DEFAULT_MEMORY_LIMIT // 2**20,
+        big_table=table(["run", "stripes", "seconds", "Mpx/s", "peak RSS per process (MB)"],
+                        [(mode, n, f"{s:.1f}", f"{big ** 2 / s / 1e6:.1f}",
+                          ", ".join(f"{p:.0f}" for p in peaks)) for mode, n, s, peaks, _
+                         in big_rows]),
+        summary=big_rows[0][4], same="identical" if f["same"] else "DIFFERENT",
+        worst_peak=max(p for *_, peaks, _ in big_rows for p in peaks),
+        pair_mb=bytes_per_pair / 1e6, seconds_per_pair=seconds_per_pair,
+        per_machine=per_machine, task_mb=big_bytes / 1e6, big_task_s=big_task_s,
+        task_count=tasks["count"], noop_rate=noop_rate,
+        pairs_model=table(["machines", f"compute only ({cores} cores each)", *model_header],
+                          [(n, f"{a:.1f}", f"{b:.1f}", f"{c:.1f}") for n, a, b, c in
+                           model_rows(per_machine, bytes_per_pair, noop_rate, 1)]),
+        big_model=table(["machines", "compute only", *model_header],
+                        [(n, f"{a:.1f}", f"{b:.1f}", f"{c:.1f}") for n, a, b, c in
+                         model_rows(big_rate, per_mpx_bytes, noop_rate,
+                                    tasks["count"] / (big ** 2 / 1e6))]),
+        network_pairs=network_pairs, network_machines=network_pairs / per_machine,
+        network_machines_10=10 * network_pairs / per_machine,
+        scheduler_machines=noop_rate / per_machine, stripe_io_rate=stripe_io_rate,
+        pair_io_rate=pair_io_rate,
+        network_verdict=("saturates a link sooner" if stripe_io_rate > pair_io_rate else
+                         "is no harder on the network"))
+    return fill_template("scale", [("report", fields)])
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--output", required=True)
@@ -226,146 +297,13 @@ def main():
     stripes = striping(work, args.repeat)
     gen, big, same, big_result = big_pair(work, args.big)
 
-    here_s = batch["here (no Dask)"][0]
-    one_s = batch["1 worker"][0]
-    two_s = batch["2 workers"][0]
-    per_machine = args.pairs / two_s
-    seconds_per_pair = two_s / args.pairs
-    tasks = big_result.tasks
-    big_bytes = (tasks["bytes_read"] + tasks["bytes_written"]) / tasks["count"]
-    big_task_s = tasks["seconds"] / tasks["count"]
-
-    out = []
-    out.append(f"""# csw at scale: many pairs, and pairs bigger than memory
-
-Generated {now_utc()} by `make bench-scale` (`scripts/scale_report.py`) on {cpu_name()},
-{cores} cores; csw {csw.__version__}. Dask LocalClusters bound to 127.0.0.1; a worker
-with a core gets one Numba thread, one with all cores gets {cores}. Every run here has
-been warmed up (kernels compiled or loaded from the cache in every process) and compile
-time is not in the figures. Scaling is the point of this report, so runs use every core.
-
-## 1. Many pairs: {args.pairs} pairs of 1920 x 1080, d 0..{HD_DMAX}, preset accurate
-
-`csw match lefts/ rights/ -O maps/ --dmax {HD_DMAX} [--workers N]`: each pair one task,
-read and written by the worker. Median of {args.repeat} batches, interleaved.
-
-""")
-    out.append(table(["run", "batch (s)", "pairs/s", "vs here", "cluster start-up (s)"],
-                     [(mode, f"{s:.2f}", f"{args.pairs / s:.2f}", f"{here_s / s:.2f}x",
-                       f"{start:.1f}" if start else "") for mode, (s, start) in
-                      batch.items()]))
-    gain = here_s / two_s
-    why = ("a pair per core beats splitting each pair's rows between threads, which "
-           "leaves a core idle in the serial parts (reading and writing files, the speckle "
-           "filter's flood fill)" if gain > 1.05 else
-           "splitting each pair's rows between threads already keeps the cores busy")
-    out.append(f"""
-
-On this {cores}-core machine, 2 workers give {args.pairs / two_s:.2f} pairs/s against
-{args.pairs / here_s:.2f} matching here with all cores ({gain:.2f}x) and
-{args.pairs / one_s:.2f} on one worker with all cores: {why}. A cluster costs its start-up
-once per batch.
-
-## 2. Striping one pair: 1920 x 1080, d 0..{HD_DMAX}, here, all cores
-
-`csw.match` against `csw.match_tiled` (what `csw match --memory-limit` runs) on the same
-pair; median of {args.repeat} interleaved rounds after one warm-up round. Both write the
-same PFM (the tests check the maps are equal bit for bit). "Rows matched" is the extra
-input rows the stripes' overlaps add; the 2-D filters' pass reads speckle_size - 1 rows
-of map each side.
-
-""")
-    out.append(table(["preset", "run", "stripes", "extra rows matched", "filter overlap",
-                      "seconds", "vs whole"],
-                     [(p, label, n, f"{100 * share:.1f}%", f"{fo} rows" if fo else "",
-                       f"{s:.3f}", f"{r:.2f}x") for p, label, n, share, fo, s, r
-                      in stripes]))
-    worst = max(r for *_, r in stripes)
-    speckle_rows = filter_overlap(resolve().stages)
-    default_accurate = next(r for p, label, *_, r in stripes
-                            if p == "accurate" and label.startswith("stripes, default"))
-    out.append(f"""
-
-At the default limit a 1080p pair is one stripe; its cost over `csw.match` is the zarr
-store and the second pass ({default_accurate:.2f}x for the accurate preset). Thinner
-stripes cost more, up to {worst:.2f}x here: each adds its overlap rows, and with the speckle
-filter on (the accurate preset) each stripe's second pass re-reads and re-filters
-{speckle_rows} rows of map above and below; the raw preset has no second pass.
-
-## 3. One pair bigger than memory: {args.big} x {args.big}, d 0..{BIG_DMAX}, preset accurate
-
-Left and right are tiled uint8 TIFFs (BigTIFF), {args.big * args.big / 1e6:.0f} Mpx each,
-made by `csw synth --tiff` by row bands{f' in {gen:.0f} s' if gen else ''}; the map is
-{args.big * args.big * 4 / 2**30:.1f} GiB of float32, written as a tiled TIFF. The default
-memory limit ({DEFAULT_MEMORY_LIMIT // 2**20} MiB of working memory) sets the stripe height.
-
-""")
-    out.append(table(["run", "stripes", "seconds", "Mpx/s", "peak RSS per process (MB)"],
-                     [(mode, n, f"{s:.1f}", f"{args.big ** 2 / s / 1e6:.1f}",
-                       ", ".join(f"{p:.0f}" for p in peaks)) for mode, n, s, peaks, _
-                      in big]))
-    worst_peak = max(p for *_, peaks, _ in big for p in peaks)
-    out.append(f"""
-
-Command for the first row: `{' '.join(['csw', 'match', 'left.tif', 'right.tif', '-o',
-                                      'disp.tif', '--dmax', str(BIG_DMAX)])}`; its
-summary line: `{big[0][4]}`. The two runs' TIFFs are {'identical' if same else 'DIFFERENT'}
-byte for byte. Peak RSS is the OS's high-water mark of each process (`ru_maxrss`, or
-`VmHWM` on the workers), start-up and compilation included: at most {worst_peak:.0f} MB
-against the target of 1 GB, whatever the image's size, since the stripe height follows
-the memory limit and not the image.
-
-## 4. N machines: a model from these measurements
-
-Not measured on N machines (there is one here): a model built from what was measured.
-Each task is independent, so N machines add throughput until something shared is the
-limit: the network or the storage that the inputs and outputs cross, or the scheduler.
-
-- Many pairs: a pair moves {bytes_per_pair / 1e6:.1f} MB (two 1080p PNGs in, a PFM out) and
-  costs {seconds_per_pair:.2f} s of this machine ({per_machine:.2f} pairs/s on 2 workers).
-- One big pair: a stripe task moves {big_bytes / 1e6:.1f} MB on average (decoded pixels in,
-  float32 map out, both passes) and computes for {big_task_s:.2f} s on one worker core;
-  {tasks['count']} tasks.
-- The scheduler completes {noop_rate:.0f} empty tasks/s here (2 workers, 2000 tasks).
-
-Many pairs, pairs/s (network bandwidth assumed; everything else measured):
-
-""")
-    out.append(table(["machines", f"compute only ({cores} cores each)", "1 Gbit/s shared",
-                      "10 Gbit/s shared"],
-                     [(n, f"{a:.1f}", f"{b:.1f}", f"{c:.1f}") for n, a, b, c in
-                      model_rows(per_machine, bytes_per_pair, noop_rate, 1)]))
-    big_rate = (args.big ** 2 / 1e6) / big[1][2]  # Mpx/s on this machine
-    out.append(f"""
-
-One {args.big} x {args.big} pair, Mpx/s (a task per stripe; same assumptions):
-
-""")
-    per_mpx_bytes = big_bytes * tasks["count"] / (args.big ** 2 / 1e6)
-    out.append(table(["machines", "compute only", "1 Gbit/s shared", "10 Gbit/s shared"],
-                     [(n, f"{a:.1f}", f"{b:.1f}", f"{c:.1f}") for n, a, b, c in
-                      model_rows(big_rate, per_mpx_bytes, noop_rate,
-                                 tasks["count"] / (args.big ** 2 / 1e6))]))
-    network_pairs = 1e9 / 8 / bytes_per_pair
-    pair_io_rate = bytes_per_pair / seconds_per_pair / 1e6  # MB per second of compute
-    stripe_io_rate = big_bytes / big_task_s / 1e6
-    scheduler_machines = noop_rate / per_machine
-    out.append(f"""
-
-What it says: a 1080p pair is {seconds_per_pair:.2f} s of compute against
-{bytes_per_pair / 1e6:.1f} MB of I/O, so a shared 1 Gbit/s link carries
-{network_pairs:.0f} pairs/s, the work of about {network_pairs / per_machine:.0f} machines
-like this one, and 10 Gbit/s about {10 * network_pairs / per_machine:.0f}. The scheduler's
-{noop_rate:.0f} tasks/s would take about {scheduler_machines:.0f} such machines to
-saturate with whole pairs. A stripe task moves {stripe_io_rate:.1f} MB per second of
-compute against {pair_io_rate:.1f} MB for a whole pair (decoded pixels and float32 maps
-against compressed PNGs in and a PFM out), so a big pair
-{'saturates a link sooner' if stripe_io_rate > pair_io_rate else 'is no harder on the network'}
-than a batch. What the model leaves out: stragglers (a batch waits for its slowest task),
-reading rows twice where stripes overlap, compressed TIFFs (fewer bytes on the wire than
-the decoded figures used here), and a scheduler far from its workers.
-""")
-    Path(args.output).write_text("".join(out))
+    text = markdown(dict(
+        date=now_utc(), cpu=cpu_name(), cores=cores, version=csw.__version__,
+        pairs=args.pairs, repeat=args.repeat, big=args.big, batch=batch,
+        bytes_per_pair=bytes_per_pair, noop_rate=noop_rate, stripes=stripes,
+        speckle_rows=filter_overlap(resolve().stages), gen=gen, big_rows=big, same=same,
+        tasks=big_result.tasks))
+    Path(args.output).write_text(text)
     print(f"wrote {args.output}", file=sys.stderr)
     if not args.work:
         shutil.rmtree(work, ignore_errors=True)
