@@ -29,7 +29,7 @@ _TEMPORARY = re.compile(r"^\.csw-tmp\.(?P<name>.*)\.(?P<host>[0-9a-f]{8})-(?P<pi
 _SWEPT = set()  # (pid, folder): swept once per process, not once per file written
 
 
-def _mode_for(path):
+def mode_for(path):
     """The mode a plain open() would give ``path``: an existing file keeps its own, a new
     one gets 0666 less the umask (mkstemp's files are 0600 whatever the umask)."""
     try:
@@ -164,7 +164,7 @@ def atomic_write_all(items):
                 if exc.errno is not None and exc.filename in (None, tmp):
                     raise OSError(exc.errno, exc.strerror, str(path)) from None
                 raise
-            os.chmod(tmp, _mode_for(path))
+            os.chmod(tmp, mode_for(path))
         for tmp, path in staged:
             os.replace(tmp, path)
     except BaseException:

@@ -246,9 +246,9 @@ class VideoWriter:
         if self.frames == 0:
             self.discard()
             return False
-        from .atomic import _mode_for
+        from .atomic import mode_for
 
-        os.chmod(self.tmp, _mode_for(self.path))
+        os.chmod(self.tmp, mode_for(self.path))
         os.replace(self.tmp, self.path)
         return True
 
