@@ -321,6 +321,11 @@ def _zeros(shape):
     return np.broadcast_to(np.float32(0), shape)
 
 
+# Set-ups a Matcher keeps: a stream has one frame size, a batch a few; a batch whose
+# pairs each bring a calibration (a range of their own) must not keep one a pair.
+KEPT_SET_UPS = 16
+
+
 def _match(config, left, right, want_confidence, ready=None, calibration=None):
     """One pair with a resolved ``config``.  ready: a dict of set-ups kept between pairs
     (a Matcher's), filled with the ones that don't depend on the pixels.  calibration:
@@ -348,6 +353,8 @@ def _match(config, left, right, want_confidence, ready=None, calibration=None):
         # Kept unless it came from these pixels: a range or a tau found from the pair.
         if ready is not None and not prepared.from_pixels and \
                 prepared.settings["tau_source"] != "auto":
+            if len(ready) >= KEPT_SET_UPS:  # the oldest goes (dicts keep their order)
+                ready.pop(next(iter(ready)), None)
             ready[key] = prepared
     start = time.perf_counter()
     # This thread's workspace: a notebook's or a batch's repeated matches reuse their
