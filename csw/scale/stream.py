@@ -622,7 +622,8 @@ class _FrameRun:
 
     def outputs(self, index):
         """The frame's outputs (csw.io.outputs.PairOutputs): its map and the
-        frame_outputs asked for, checked with the stream's outputs before the run."""
+        frame_outputs asked for (their formats checked with the stream's outputs before
+        the run, each file by csw.io.atomic as it is written)."""
         name = FRAME_NAME.format(index=index)
         return PairOutputs({"output": self.map_path(index),
                             **{role: self.out_dir / (name + FRAME_INFIX[role] + extra)
