@@ -353,8 +353,10 @@ def _match(config, left, right, want_confidence, ready=None, calibration=None):
         # Kept unless it came from these pixels: a range or a tau found from the pair.
         if ready is not None and not prepared.from_pixels and \
                 prepared.settings["tau_source"] != "auto":
-            if len(ready) >= KEPT_SET_UPS:  # the oldest goes (dicts keep their order)
-                ready.pop(next(iter(ready)), None)
+            # The oldest go (dicts keep their order); list() copies the keys in one step,
+            # so a batch's threads sharing the Matcher never see the dict change under it.
+            for old in list(ready)[:max(0, len(ready) - KEPT_SET_UPS + 1)]:
+                ready.pop(old, None)
             ready[key] = prepared
     start = time.perf_counter()
     # This thread's workspace: a notebook's or a batch's repeated matches reuse their
