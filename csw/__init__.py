@@ -13,10 +13,11 @@ Layout, one folder a concept:
   config/    the option table and presets (params), tau, the paper's settings
   matching/  csw.Matcher and csw.match (matcher), what runs before the first row (setup),
              the stages around the kernels (stages, pipeline), the range found from the pair
-             (disparity_range), a pair of files in and its outputs out (files)
-  scale/     many pairs (batch, executor, distributed) and pairs in row stripes (tiled)
+             (disparity_range)
+  scale/     a pair of files in and its outputs out (files: whole or in stripes), many
+             pairs (batch, executor, distributed), pairs in row stripes (tiled), streams
   camera/    calibrations (calibration), depth and point clouds (geometry)
-  io/        images, map formats, atomic writes, output safety
+  io/        images, map formats, a pair's outputs (outputs), atomic writes, output safety
   data/      datasets, benchmark layouts, the synthetic scene
   eval/      scoring, bench, sweep, histograms, plots
   kernels/   the compiled kernels (installed from the source tree's top-level kernels/)
@@ -48,7 +49,7 @@ _PUBLIC = {
     "jobs_from_manifest": ("scale.batch", "jobs_from_manifest"),
     "load_dataset": ("data.datasets", "load"),
     "match": ("matching.matcher", "match"),
-    "match_files": ("matching.files", "match_files"),
+    "match_files": ("scale.files", "match_files"),
     "match_log": ("scale.stream", "match_log"),
     "match_many": ("scale.batch", "match_many"),
     "match_tiled": ("scale.tiled.run", "match_tiled"),
@@ -88,11 +89,11 @@ if TYPE_CHECKING:  # what the table above imports on first use, for readers and 
     from .eval.sweep import sweep_rows
     from .io.formats import read_disparity, write_disparity
     from .io.images import ImageError, read_image
-    from .matching.files import match_files
     from .matching.matcher import Matcher, Result, match
     from .matching.setup import compile_kernels
     from .robot.logs import read_log
     from .scale.batch import Job, jobs_from_folders, jobs_from_manifest, match_many
+    from .scale.files import match_files
     from .scale.stream import match_log
     from .scale.tiled.run import TiledResult, match_tiled
 

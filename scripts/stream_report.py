@@ -322,8 +322,8 @@ def frame_split(folder, frames=150):
     (Matcher.stream on the decoded frames, 2 threads): the frames a second the whole run
     is bound by."""
     from csw.io.formats import write_disparity
+    from csw.io.pictures import DisparityColours
     from csw.io.video import VideoReader, VideoWriter
-    from csw.scale.stream import DisparityColours
 
     video = sbs_video(folder)
     out = {}

@@ -5,6 +5,7 @@ atomic.
   images    reading stereo images (colour by luma, 16-bit kept)
   sources   images read by rows (TIFF tiles, .npy, .zarr) for striped matching
   formats   the table of formats: suffix -> reader, whole writer, stripe writer, limits
+  outputs   a pair's outputs, checked before any work and written together (PairOutputs)
   atomic    writes through a temporary file renamed into place
 """
 
@@ -13,7 +14,7 @@ from .formats import (
     FORMATS,
     PNG_MAX_DISPARITY,
     as_float_disparity,
-    check_range,
+    check_map_range,
     colorize,
     disparity_writer,
     pfm_writer,
@@ -28,6 +29,6 @@ from .formats import (
 from .images import ImageError, luma, read_image, to_gray
 
 __all__ = ["FORMATS", "PNG_MAX_DISPARITY", "ImageError", "as_float_disparity",
-           "atomic_write", "atomic_write_all", "check_range", "colorize", "disparity_writer",
+           "atomic_write", "atomic_write_all", "check_map_range", "colorize", "disparity_writer",
            "luma", "pfm_writer", "png_writer", "read_disparity", "read_image", "read_pfm",
            "suffixes", "to_gray", "write_disparity", "write_float_pfm", "write_png"]

@@ -444,7 +444,7 @@ def negative_message(suffix):
             f"{', '.join(s for s in suffixes('map') if FORMATS[s].floats)}")
 
 
-def check_range(path, dmax, dmin=0):
+def check_map_range(path, dmax, dmin=0):
     """ValueError when the format of ``path`` can't hold disparities dmin..dmax (a bound
     "auto" is checked when the map is written)."""
     suffix = Path(path).suffix.lower()
@@ -477,12 +477,17 @@ def float_map_writer(path, values):
     values = np.asarray(values, np.float32)
     if fmt.whole is not None:
         return fmt.whole(values)
+    return fmt.stripes(path, values.shape, array_blocks(values))
 
+
+def array_blocks(values):
+    """The ``blocks(rows, bottom_up=False)`` of a stripe writer (the module's docstring)
+    over a map in memory, so that a whole map is written as a striped one is."""
     def blocks(rows, bottom_up=False):
         starts = range(0, values.shape[0], rows)
         for start in reversed(starts) if bottom_up else starts:
             yield start, values[start:start + rows]
-    return fmt.stripes(path, values.shape, blocks)
+    return blocks
 
 
 def write_disparity(path, disp):

@@ -3,7 +3,10 @@ invalid pixels black (a colour Turbo does not use), and under it a colour bar wi
 values, its units and the range as numbers, in type sized to the picture.
 
 Turbo (Google, 2019) is held here as a small table, so no plotting library is needed;
-tests/library/test_pictures.py checks it against matplotlib's.
+tests/library/test_pictures.py checks it against matplotlib's.  Every preview csw makes
+comes from this table: a still's (disparity_picture, and a striped map's band by band
+through csw.io.formats.colorize) and a video frame's (DisparityColours, the same colours
+to a level, in the few steps a frame can afford).
 """
 
 import numpy as np
@@ -121,3 +124,49 @@ def depth_picture(depth, units):
     return np.vstack([colour(depth, near, far, reverse=True),
                       bar(depth.shape[1], near, far, label, reverse=True,
                           note="1st-99th percentile, clipped" if clipped else None)])
+
+
+# A video's frames: the same Turbo table, as packed RGBA (little-endian: R in the first
+# byte), with one more entry, black, for invalid pixels: a frame's colours are one lookup
+# of 4 bytes a pixel (about 1 ms at 640x480, where indexing the (256, 3) table took 7).
+_TURBO_RGBA = np.concatenate([
+    TURBO[:, 0].astype(np.uint32) | TURBO[:, 1].astype(np.uint32) << 8
+    | TURBO[:, 2].astype(np.uint32) << 16 | np.uint32(255) << 24,
+    [np.uint32(INVALID[0] | INVALID[1] << 8 | INVALID[2] << 16 | 255 << 24)]]).astype(np.uint32)
+
+
+def disparity_colours(disparity, low, high):
+    """uint8 (H, W, 4) RGBA, alpha 255: a disparity map (float32 (H, W), NaN invalid) in
+    Turbo over low..high, invalid black: csw.io.pictures' colours (to a level), without
+    its colour bar, in the few steps a video frame can afford."""
+    return DisparityColours()(disparity, low, high)
+
+
+class DisparityColours:
+    """disparity_colours for a stream of maps, its arrays kept for the next map of the same
+    size: a call returns the colourer's own array, overwritten by the next call.  Fresh
+    arrays each frame paid the first touch of each of their pages: 3.1 ms a 640x480 frame,
+    against 1.35 with the arrays kept."""
+
+    def __init__(self):
+        self.shape = None
+
+    def __call__(self, disparity, low, high):
+        disparity = np.asarray(disparity, np.float32)
+        if disparity.shape != self.shape:
+            self.shape = disparity.shape
+            self.scaled = np.empty(disparity.shape, np.float32)
+            self.index = np.empty(disparity.shape, np.uint16)
+            self.rgba = np.empty(disparity.shape, np.uint32)
+        t, index = self.scaled, self.index
+        scale = 255.0 / max(high - low, 1e-12)
+        np.subtract(disparity, np.float32(low), out=t)
+        t *= np.float32(scale)
+        t += np.float32(0.5)
+        np.clip(t, 0, 255, out=t)  # NaN stays NaN
+        # NaN becomes the last entry, the invalid colour: fmin takes the number where one
+        # side is NaN, in one pass (a masked assignment took longer than the rest).
+        np.fmin(t, np.float32(len(_TURBO_RGBA) - 1), out=t)
+        np.copyto(index, t, casting="unsafe")  # truncation, as astype
+        np.take(_TURBO_RGBA, index, out=self.rgba)
+        return self.rgba.view(np.uint8).reshape(*disparity.shape, 4)

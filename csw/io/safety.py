@@ -38,7 +38,7 @@ def protect(path):
         _GUARDED[-1].add(os.path.realpath(path))
 
 
-def _error(message, option=None):
+def option_error(message, option=None):
     from ..config.params import OptionError
 
     return OptionError(option, message)
@@ -117,11 +117,11 @@ def check_target(path, option=None, folder_ok=False):
     kind = kind_of(path)
     if kind not in (None, "file") and not (kind == "folder" and folder_ok):
         link = f" (a link to {os.path.realpath(path)})" if os.path.islink(path) else ""
-        raise _error(f"{path}{link} is a {kind}, not a regular file; csw writes only "
+        raise option_error(f"{path}{link} is a {kind}, not a regular file; csw writes only "
                      "regular files", option)
     real = os.path.realpath(path)
     if any(real in inputs for inputs in _GUARDED):
-        raise _error(f"{path} is an input of this run; an output must not overwrite an "
+        raise option_error(f"{path} is an input of this run; an output must not overwrite an "
                      "input", option)
 
 
@@ -142,22 +142,22 @@ def check_outputs(inputs, outputs, allowed):
         path = Path(path)
         suffix = path.suffix.lower()
         if path.is_dir() and suffix != ".zarr":  # said first: a folder has no extension
-            raise _error(f"{str(path)!r} is a folder; give a file name", name)
+            raise option_error(f"{str(path)!r} is a folder; give a file name", name)
         if suffix not in allowed[name]:
-            raise _error(f"unknown extension {path.suffix or '(none)'!r}; use "
+            raise option_error(f"unknown extension {path.suffix or '(none)'!r}; use "
                          f"{', '.join(allowed[name])}", name)
         folder = path.parent if str(path.parent) else Path(".")
         if not folder.is_dir():
-            raise _error(f"folder {str(folder)!r} does not exist; create it first", name)
+            raise option_error(f"folder {str(folder)!r} does not exist; create it first", name)
         if not os.access(folder, os.W_OK):
-            raise _error(f"folder {str(folder)!r} is not writable", name)
+            raise option_error(f"folder {str(folder)!r} is not writable", name)
         store = suffix == ".zarr" and (path / "zarr.json").is_file()
         if path.is_dir() and not store:
-            raise _error(f"{str(path)!r} is a directory", name)
+            raise option_error(f"{str(path)!r} is a directory", name)
         check_target(path, name, folder_ok=store)
         key = os.path.realpath(path)
         if key in seen:
-            raise _error(f"{path} is also given as {seen[key]}; an output must not "
+            raise option_error(f"{path} is also given as {seen[key]}; an output must not "
                          "overwrite an input or another output", name)
         seen[key] = name
 
@@ -181,7 +181,7 @@ def check_space(needs):
     for folder, size in by_disk.values():
         free = shutil.disk_usage(folder).free
         if size > free:
-            raise _error(f"the outputs need up to {_mb(size)} on the disk of {folder}, "
+            raise option_error(f"the outputs need up to {_mb(size)} on the disk of {folder}, "
                          f"which has {_mb(free)} free; free some space or write them "
                          "elsewhere")
 

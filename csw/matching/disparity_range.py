@@ -44,11 +44,10 @@ def decide(config, width, calibration=None, shrunk=None):
                             (csw.matching.disparity_range.shrink); a bound given beside
                             it is kept
 
-    Without ``shrunk``, an "auto" bound stays "auto" (the caller finds it once it has the
-    pixels)."""
-    if calibration is not None and calibration.ndisp and "dmax" not in config.given:
-        config = config.replace(dmax=min(calibration.ndisp - 1, width - 1),
-                                range_source=f"ndisp of {calibration.source}")
+    The one decision of a pair's range: csw.matching.setup.set_up calls it once per
+    pair (a set-up kept for the next pairs keeps its range too).  Without ``shrunk``, an
+    "auto" bound stays "auto"."""
+    config = _with_calibration(config, width, calibration)
     if config.range_known or shrunk is None:
         return config
     f = factor(width)
@@ -59,6 +58,43 @@ def decide(config, width, calibration=None, shrunk=None):
     source = "auto" if config.range_source in ("given", "default", "auto") else \
         f"{config.range_source}, dmin auto"
     return config.replace(dmin=low, dmax=high, range_source=source)
+
+
+def _with_calibration(config, width, calibration):
+    """No dmax given: the calibration's ndisp sets it (below the width)."""
+    if calibration is not None and calibration.ndisp and "dmax" not in config.given:
+        config = config.replace(dmax=min(calibration.ndisp - 1, width - 1),
+                                range_source=f"ndisp of {calibration.source}")
+    return config
+
+
+def known_range(config, width, calibration=None):
+    """(dmin, dmax) as far as they are known before the pair's pixels are read (given,
+    the preset's, a calibration's ndisp), for the checks made before any work (a map
+    format's range); None, csw's one way to say "not known yet", when a bound is "auto"
+    (found from the pair by :func:`decide`).  This decides nothing."""
+    config = _with_calibration(config, width, calibration)
+    return (config.dmin, config.dmax) if config.range_known else None
+
+
+def assumed_range(config, width, calibration=None):
+    """``config`` with a range to plan with (memory, threads) before the pair's own is
+    decided: :func:`known_range`, else each "auto" bound stood in for by the widest a
+    found one can usually be (dmin 0, dmax half the width: the coarse search's top,
+    csw.matching.disparity_range._coarse).  The one stand-in for a range not known yet;
+    never the range a pair is matched with."""
+    config = _with_calibration(config, width, calibration)
+    if config.range_known:
+        return config
+    return config.replace(dmin=0 if config.dmin == "auto" else config.dmin,
+                          dmax=max(1, width // 2) if config.dmax == "auto" else config.dmax)
+
+
+def kept_from_first(config, settings):
+    """``config`` with the range a first pair found (its Result's ``settings``), kept for
+    the next pairs of a stream (csw.Matcher, keep_range)."""
+    return config.replace(dmin=settings["dmin"], dmax=settings["dmax"],
+                          range_source="auto (from the first pair)")
 
 
 def check_bounds(config, width):

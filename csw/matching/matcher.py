@@ -1,6 +1,6 @@
 """``csw.match``: one rectified pair in memory, a disparity map and what goes with it out.
 
-Pairs bigger than memory go through :mod:`csw.scale.tiled`; :func:`csw.matching.files.match_files`
+Pairs bigger than memory go through :mod:`csw.scale.tiled`; :func:`csw.scale.files.match_files`
 chooses between the two for files.  Both prepare through :mod:`csw.matching.setup`.
 """
 
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import kernels
-from ..camera import calibration
+from ..camera import calibration as calib_module
 from ..config.params import resolve
 from ..io.images import read_image, to_gray
 from . import disparity_range
@@ -23,8 +23,27 @@ from .pipeline import run as run_pipeline
 from .setup import load_kernels, set_up
 
 
+class CandidateCounts:
+    """``evaluated`` and ``candidates`` of a match, whole or striped, and what CSW saved
+    of them (csw.Result and csw.TiledResult share it)."""
+
+    @property
+    def work_saved(self):
+        """Share (0..1) of plain matching's candidate costs that CSW skipped."""
+        return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
+
+
+def resolved(config, options, who):
+    """The options a caller gave, or a csw.config.params.Config it resolved already
+    (csw's own callers resolve once, before they read any file): TypeError for both,
+    naming ``who``; a bad option fails here, before any work."""
+    if config is not None and options:
+        raise TypeError(f"give {who} its options or a resolved config, not both")
+    return resolve(**options) if config is None else config
+
+
 @dataclass
-class Result:
+class Result(CandidateCounts):
     """What :func:`match` returns.
 
     disparity: float32 (H, W), the disparity (subpixel where asked), NaN where invalid (no
@@ -62,11 +81,6 @@ class Result:
     def valid(self):
         """bool (H, W): where a disparity was found."""
         return np.isfinite(self.disparity)
-
-    @property
-    def work_saved(self):
-        """Share (0..1) of plain matching's candidate costs that CSW skipped."""
-        return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
 
     @property
     def invalid_share(self):
@@ -169,30 +183,28 @@ class Matcher:
     """
 
     def __init__(self, pixels=np.uint8, config=None, keep_range=True, **options):
-        if config is not None and options:
-            raise TypeError("give a Matcher its options or a resolved config, not both")
         if not isinstance(keep_range, bool):
             raise TypeError(f"keep_range must be True or False, got {keep_range!r}")
         self.keep_range = keep_range
         # TypeError / ValueError now.  config: a csw.config.params.Config resolved
         # already (csw's own callers, which resolve before they read any file).
-        self.config = resolve(**options) if config is None else config
+        self.config = resolved(config, options, "a Matcher")
         self._found = None  # the config with the range found on the first pair
         self._ready = {}  # (config, shapes, dtypes, confidence) -> Prepared
         if pixels is not None and self.config.range_known:
             load_kernels(self.config, np.dtype(pixels))
 
-    def match(self, left, right, want_confidence=False):
+    def match(self, left, right, want_confidence=False, calibration=None):
         """Match a rectified pair (paths or arrays, as for :func:`csw.match`); returns a
-        :class:`Result`."""
-        return self._match_with(self._found or self.config, left, right, want_confidence)
+        :class:`Result`.  calibration: the pair's csw.Calibration, whose ndisp sets the
+        range when no dmax was given (default: a calib.txt beside a left image file)."""
+        return self._match_with(self._found or self.config, left, right, want_confidence,
+                                calibration)
 
-    def _match_with(self, config, left, right, want_confidence):
-        result = _match(config, left, right, want_confidence, self._ready)
+    def _match_with(self, config, left, right, want_confidence, calibration=None):
+        result = _match(config, left, right, want_confidence, self._ready, calibration)
         if self._found is None and not config.range_known and self.keep_range:
-            s = result.settings
-            self._found = config.replace(dmin=s["dmin"], dmax=s["dmax"],
-                                         range_source="auto (from the first pair)")
+            self._found = disparity_range.kept_from_first(config, result.settings)
         return result
 
     def stream(self, pairs, in_flight=None, want_confidence=False, errors="raise"):
@@ -234,6 +246,12 @@ class Matcher:
         frames, threads = stream_plan(planned, shape, in_flight)
         yield first
         frame_config = config.replace(threads=threads)
+        # Frames in flight on a pool of their own, not csw.scale.executor.run_tasks (the
+        # engine of batches and stripes, which yields tasks as they finish and queues
+        # two a thread): a stream yields in order, reads its source at most
+        # ``in_flight`` frames ahead (a camera must not be drained), and lives under
+        # csw.scale, which imports this module.  kernels/runtime.py's pool is another
+        # level again: the row stripes inside one frame.
         if frames == 1:
             for left, right in iterator:
                 yield self._guarded(frame_config, left, right, want_confidence, errors)
@@ -303,14 +321,22 @@ def _zeros(shape):
     return np.broadcast_to(np.float32(0), shape)
 
 
-def _match(config, left, right, want_confidence, ready=None):
+# Set-ups a Matcher keeps: a stream has one frame size, a batch a few; a batch whose
+# pairs each bring a calibration (a range of their own) must not keep one a pair.
+KEPT_SET_UPS = 16
+
+
+def _match(config, left, right, want_confidence, ready=None, calibration=None):
     """One pair with a resolved ``config``.  ready: a dict of set-ups kept between pairs
-    (a Matcher's), filled with the ones that don't depend on the pixels."""
-    beside = calibration.resolve(None, left) if "dmax" not in config.given else None
+    (a Matcher's), filled with the ones that don't depend on the pixels.  calibration:
+    the pair's, for its ndisp (default: a calib.txt beside a left image file, as csw
+    match reads it)."""
+    if calibration is None and "dmax" not in config.given:
+        calibration = calib_module.resolve(None, left)
     left, right = as_gray(left, "left"), as_gray(right, "right")
-    if beside is not None:  # a calib.txt beside a left image file: its ndisp, as csw match
-        config = disparity_range.decide(config, left.shape[1], beside)
-    key = (config, left.shape, left.dtype, right.shape, right.dtype, want_confidence)
+    ndisp = (calibration.ndisp, calibration.source) if calibration is not None and \
+        calibration.ndisp else None
+    key = (config, ndisp, left.shape, left.dtype, right.shape, right.dtype, want_confidence)
     prepared = None if ready is None else ready.get(key)
     compile_seconds = 0.0
     if prepared is None:
@@ -322,11 +348,15 @@ def _match(config, left, right, want_confidence, ready=None):
 
         prepared = set_up(config, left.shape, left.dtype, right=(right.shape, right.dtype),
                           sample_min_cost=sample_min_cost, confidence=want_confidence,
-                          shrunk=shrunk)
+                          shrunk=shrunk, calibration=calibration)
         compile_seconds = prepared.compile_seconds
         # Kept unless it came from these pixels: a range or a tau found from the pair.
-        if ready is not None and config.range_known and \
+        if ready is not None and not prepared.from_pixels and \
                 prepared.settings["tau_source"] != "auto":
+            # The oldest go (dicts keep their order); list() copies the keys in one step,
+            # so a batch's threads sharing the Matcher never see the dict change under it.
+            for old in list(ready)[:max(0, len(ready) - KEPT_SET_UPS + 1)]:
+                ready.pop(old, None)
             ready[key] = prepared
     start = time.perf_counter()
     # This thread's workspace: a notebook's or a batch's repeated matches reuse their

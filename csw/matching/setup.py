@@ -24,7 +24,8 @@ class Prepared:
     config: the resolved options, the range decided.  args: the kernels' arguments, with
     csw and the resolved tau.  settings: the config as a flat dict, with tau resolved to
     a number (-1 when CSW is off) and ``tau_source``.  compile_seconds: the JIT compile or
-    cache load.  plan: what ``make_plan`` returned, if given.
+    cache load.  plan: what ``make_plan`` returned, if given.  from_pixels: the range
+    was found from the pair's pixels (so the set-up is that pair's alone).
     """
 
     config: Config
@@ -32,6 +33,7 @@ class Prepared:
     settings: dict
     compile_seconds: float
     plan: object = None
+    from_pixels: bool = False
 
 
 def _said_of(option, check, *args):
@@ -43,7 +45,7 @@ def _said_of(option, check, *args):
 
 
 def set_up(config, shape, dtype, right=None, sample_min_cost=None, make_plan=None,
-           confidence=False, shrunk=None):
+           confidence=False, shrunk=None, calibration=None):
     """Set up a match of a pair of ``shape`` (H, W) and ``dtype``.
 
     config: a csw.config.params.Config (the callers resolve it before reading any pixel,
@@ -59,6 +61,10 @@ def set_up(config, shape, dtype, right=None, sample_min_cost=None, make_plan=Non
         costs).
     shrunk(f): the pair shrunk f times (csw.matching.disparity_range.shrink), for a
         range "auto".
+    calibration: the pair's csw.Calibration, whose ndisp sets the range when no dmax
+        was given.  The range is decided here, once per pair
+        (csw.matching.disparity_range.decide); ``Prepared.from_pixels`` says whether it
+        was found from the pair's pixels.
     Raises ValueError, saying how to fix it, on any bad option or pair.  The kernels
     check their arguments once more, on the real pixels, at their entry.
     """
@@ -76,19 +82,26 @@ def set_up(config, shape, dtype, right=None, sample_min_cost=None, make_plan=Non
         _said_of("census_window", kernels.contract.census_dtype, stages.census_window,
                  stages.census_pattern)
     early_s = 0.0
-    if not config.range_known and shrunk is not None:
+    if disparity_range.known_range(config, width, calibration) is None and \
+            shrunk is not None:
         # The coarse match and the match after it use different kernels: load both at
         # once, so that a first run on an empty cache compiles them together, on every
-        # core (the match's, guessed with dmin as given, is right unless dmin is auto
-        # and comes out below 0).
+        # core (the match's, planned with dmin as given, is right unless dmin is auto
+        # and comes out below 0: the kernels depend on dmin's sign, not on dmax).
         f = disparity_range.factor(width)
-        guess = config.replace(dmin=0 if config.dmin == "auto" else config.dmin,
-                               dmax=1 if config.dmax == "auto" else config.dmax)
         early_s = kernels.native.ensure(
             config_entries(disparity_range.coarse_config(width // f, f, config),
                            np.dtype(dtype))
-            + config_entries(guess, np.dtype(dtype), confidence))
-    config = disparity_range.decide(config, width, shrunk=shrunk)
+            + config_entries(disparity_range.assumed_range(config, width), np.dtype(dtype),
+                             confidence))
+    looked = []  # shrunk, called: the range was found from these pixels
+
+    def shrunk_noted(f):
+        looked.append(f)
+        return shrunk(f)
+
+    config = disparity_range.decide(config, width, calibration,
+                                    shrunk=shrunk_noted if shrunk is not None else None)
     _said_of("dmin", kernels.contract.check_range, config.dmin, config.dmax, width)
     layout = make_plan(config) if make_plan is not None else None
     compile_s = early_s + load_kernels(config, dtype, confidence)
@@ -103,7 +116,8 @@ def set_up(config, shape, dtype, right=None, sample_min_cost=None, make_plan=Non
     if stages.aggregate == "sgm":  # the penalties the kernels take, defaults resolved
         settings["sgm_p1"], settings["sgm_p2"] = penalties(
             stages, config.cost, config.window, compared_dtype(stages, dtype))
-    return Prepared(config, dict(args, csw=config.csw, tau=tau), settings, compile_s, layout)
+    return Prepared(config, dict(args, csw=config.csw, tau=tau), settings, compile_s, layout,
+                    bool(looked))
 
 
 def load_kernels(config, dtype, confidence=False):

@@ -15,14 +15,17 @@ from pathlib import Path
 
 from ..camera import calibration as calib_module
 from ..camera.geometry import check_max_depth
-from ..config.params import OptionError, resolve
+from ..config.params import OptionError
 from ..io import safety
 from ..io.atomic import atomic_write, remove_temporaries
-from ..io.formats import check_range, suffixes
+from ..io.formats import suffixes
 from ..io.images import ImageError
+from ..io.outputs import check_range_of, role_suffixes
 from ..io.progress import progress_bar
-from ..matching.files import match_files, role_suffixes
+from ..matching import disparity_range
+from ..matching.matcher import Matcher, resolved
 from .executor import run_tasks
+from .files import match_files
 
 # A name's outputs add a suffix (".depth.tiff") to it, and a file name holds 255 bytes.
 MAX_NAME_BYTES = 200
@@ -193,7 +196,7 @@ def check_batch_outputs(jobs, outputs, out_dir, summary, calib=None):
                                      "first")
 
 
-def run_job(task, config, calib=None, three_d=None, rig=None):
+def run_job(task, config, calib=None, three_d=None, rig=None, matcher=None):
     """Match one pair, a (Job, outputs) task (outputs: role -> path, "map" first), and
     write its map and the 3-D outputs asked for, all or none, through the one path from
     a pair to files (csw.match_files: a pair too big for memory is matched in stripes);
@@ -201,7 +204,9 @@ def run_job(task, config, calib=None, three_d=None, rig=None):
     calib: the batch's Calibration, else the pair's calib.txt (beside its left image) is
     used; its ndisp sets the range when the options give no dmax.  config: the batch's
     csw.config.params.Config, resolved once.  three_d: max_depth and units.  rig: the
-    batch's csw.Rectifier when the pairs are raw (its maps built once, for every pair)."""
+    batch's csw.Rectifier when the pairs are raw (its maps built once, for every pair).
+    matcher: the batch's csw.Matcher (made once with ``config``, so that pairs of one
+    size reuse its set-up), or None (a cluster's task: one made for the pair)."""
     job, outputs = task
     entry = {"name": job.name, "left": str(job.left),
              "right": str(job.right) if job.right else None,
@@ -216,7 +221,7 @@ def run_job(task, config, calib=None, three_d=None, rig=None):
                              confidence=outputs.get("confidence"),
                              depth=outputs.get("depth"), cloud=outputs.get("cloud"),
                              depth_preview=outputs.get("depth_preview"), keep_scratch=True,
-                             config=config, **(three_d or {}))
+                             config=config, matcher=matcher, **(three_d or {}))
     except Exception as exc:  # noqa: BLE001 (any error of one pair is that pair's, reported)
         return dict(entry, status="failed", error=failure_message(exc))
     s = result.settings
@@ -301,14 +306,9 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise OptionError("output_dir", f"{out_dir} exists and is not a folder")
-    if config is not None and match_options:
-        raise TypeError("give match_many its options or a resolved config, not both")
     # Once for every pair, and bad options fail before any work.
-    config = resolve(**match_options) if config is None else config
-    try:
-        check_range(f"map{suffix}", config.dmax, config.dmin)
-    except ValueError as exc:
-        raise OptionError("dmax", str(exc)) from None
+    config = resolved(config, match_options, "match_many")
+    check_range_of(f"map{suffix}", config.dmin, config.dmax)
     check_names(jobs)
     check_max_depth(max_depth)
     summary = Path(summary) if summary else out_dir / "summary.json"
@@ -356,14 +356,18 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
     try:
         tasks = ((jobs[i], outputs[i]) for i in todo)
         three_d = dict(max_depth=max_depth, units=units)
-        side_by_side, pair_config = 1, config
+        side_by_side, pair_config, matcher = 1, config, None
         if client is None and todo:
             # Small pairs, as a stream's frames: one per thread, side by side.
             side_by_side, threads = _side_by_side(config, jobs[todo[0]])
             pair_config = config.replace(threads=threads)
+            # One Matcher for every pair (its set-ups kept from pair to pair, shared by
+            # the threads); each pair finds its own range.  A cluster's tasks make their
+            # own: a Matcher's kept set-ups are not worth shipping to the workers.
+            matcher = Matcher(pixels=None, config=pair_config, keep_range=False)
         for k, entry in run_tasks(run_job, tasks, client, side_by_side=side_by_side,
                                   config=pair_config, calib=calib, three_d=three_d,
-                                  rig=rectifier):
+                                  rig=rectifier, matcher=matcher):
             log.add(todo[k], entry)
             bar.update()
             if callable(progress):
@@ -387,7 +391,8 @@ def _side_by_side(config, job):
     """(pairs at once, threads per pair) for a batch on this machine, from its first
     pair's size as its header gives it (csw.matching.matcher.stream_plan), one at a time
     when that can't be read (the pair's own error comes when it is matched).  A range
-    found from each pair (or its calib.txt) is planned as a quarter of the width."""
+    found from each pair (or its calib.txt) is planned with csw's one stand-in
+    (csw.matching.disparity_range.assumed_range)."""
     from ..io.images import image_header
     from ..matching.matcher import stream_plan
 
@@ -395,9 +400,7 @@ def _side_by_side(config, job):
         height, width = image_header(job.left)[2]
     except (ValueError, OSError, TypeError):
         return 1, config.threads
-    if not config.range_known:
-        config = config.replace(dmin=0, dmax=max(1, width // 4))
-    return stream_plan(config, (height, width))
+    return stream_plan(disparity_range.assumed_range(config, width), (height, width))
 
 
 def first_size(jobs):

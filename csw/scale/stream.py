@@ -21,18 +21,21 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config.params import OptionError, resolve
+from ..config.params import OptionError
 from ..io import safety
-from ..io.formats import check_range, suffixes, write_disparity
-from ..io.pictures import INVALID, TURBO
+from ..io.formats import check_map_range, suffixes
+from ..io.outputs import PairOutputs, check_range_of, role_suffixes
+from ..io.pictures import DisparityColours
 from ..io.progress import progress_bar
 from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoReader, VideoWriter, is_live
 from ..matching.disparity_range import check_bounds
-from ..matching.matcher import Matcher
+from ..matching.matcher import Matcher, resolved
 from ..robot.logs import LogError, format_stamp
 from .batch import PairLog, failure_message, signals_held, write_summary
 
 FRAME_NAME = "{index:06d}"  # a frame's outputs: 000000.pfm, 000001.pfm ...
+# Its other outputs (frame_outputs): NNNNNN + this + their format, as a batch's pairs'.
+FRAME_INFIX = {"preview": ".preview", "confidence": ".confidence"}
 
 
 @dataclass
@@ -123,56 +126,10 @@ def _size(shape):
 DISK_FULL = {errno.ENOSPC, errno.EDQUOT, errno.EROFS}
 
 
-# Turbo as packed RGBA (little-endian: R in the first byte), with one more entry, black,
-# for invalid pixels: a frame's colours are one lookup of 4 bytes a pixel (about 1 ms at
-# 640x480, where indexing the (256, 3) table took 7).
-_TURBO_RGBA = np.concatenate([
-    TURBO[:, 0].astype(np.uint32) | TURBO[:, 1].astype(np.uint32) << 8
-    | TURBO[:, 2].astype(np.uint32) << 16 | np.uint32(255) << 24,
-    [np.uint32(INVALID[0] | INVALID[1] << 8 | INVALID[2] << 16 | 255 << 24)]]).astype(np.uint32)
-
-
-def disparity_colours(disparity, low, high):
-    """uint8 (H, W, 4) RGBA, alpha 255: a disparity map (float32 (H, W), NaN invalid) in
-    Turbo over low..high, invalid black: csw.io.pictures' colours (to a level), without
-    its colour bar, in the few steps a video frame can afford."""
-    return DisparityColours()(disparity, low, high)
-
-
-class DisparityColours:
-    """disparity_colours for a stream of maps, its arrays kept for the next map of the same
-    size: a call returns the colourer's own array, overwritten by the next call.  Fresh
-    arrays each frame paid the first touch of each of their pages: 3.1 ms a 640x480 frame,
-    against 1.35 with the arrays kept."""
-
-    def __init__(self):
-        self.shape = None
-
-    def __call__(self, disparity, low, high):
-        disparity = np.asarray(disparity, np.float32)
-        if disparity.shape != self.shape:
-            self.shape = disparity.shape
-            self.scaled = np.empty(disparity.shape, np.float32)
-            self.index = np.empty(disparity.shape, np.uint16)
-            self.rgba = np.empty(disparity.shape, np.uint32)
-        t, index = self.scaled, self.index
-        scale = 255.0 / max(high - low, 1e-12)
-        np.subtract(disparity, np.float32(low), out=t)
-        t *= np.float32(scale)
-        t += np.float32(0.5)
-        np.clip(t, 0, 255, out=t)  # NaN stays NaN
-        # NaN becomes the last entry, the invalid colour: fmin takes the number where one
-        # side is NaN, in one pass (a masked assignment took longer than the rest).
-        np.fmin(t, np.float32(len(_TURBO_RGBA) - 1), out=t)
-        np.copyto(index, t, casting="unsafe")  # truncation, as astype
-        np.take(_TURBO_RGBA, index, out=self.rgba)
-        return self.rgba.view(np.uint8).reshape(*disparity.shape, 4)
-
-
 def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
                 overwrite=False, preview_video=None, preview_sbs=False, summary=None,
                 progress=True, in_flight=None, keep_range=True, latest=False, config=None,
-                **match_options):
+                frame_outputs=None, **match_options):
     """Match every frame of two videos (frames paired by index), or of one side-by-side
     video (``sbs``: the left half is the left camera).
 
@@ -202,6 +159,10 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
         A live source ("-": standard input; /dev/video0: a V4L2 camera): decode in a
         thread of its own and match the newest frame, dropping the ones that arrive
         while the matcher is busy (the summary's "dropped") rather than fall behind.
+    frame_outputs : dict, optional
+        More outputs per frame beside its map, role -> format, as a batch's pairs:
+        {"preview": ".png", "confidence": ".pfm"} writes NNNNNN.preview.png and
+        NNNNNN.confidence.pfm, with the bytes csw.match_files writes for the pair.
     **match_options
         As for :func:`csw.match`; or ``config``, a csw.config.params.Config.
 
@@ -216,10 +177,11 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
         failed frames' entries), interrupted, and pairs (read from the summary file when
         asked for; an empty list without one).
     """
-    config = _config(config, match_options)
+    config = resolved(config, match_options, "a stream")
     inputs = [Path(p) for p in (left, right) if p is not None]
     out_dir, summary = _check_outputs(config, inputs, out_dir, suffix, summary,
-                                      preview_video=preview_video)
+                                      preview_video=preview_video,
+                                      frame_outputs=frame_outputs)
     if is_live(left):
         frames = LiveFrames(lambda: video_frames(left, right, sbs, colour=preview_sbs),
                             latest)
@@ -233,7 +195,7 @@ def match_video(left, right=None, *, sbs=False, out_dir=None, suffix=".pfm",
     return _match_stream(frames, info, config, out_dir=out_dir, suffix=suffix,
                          overwrite=overwrite, summary=summary, preview_video=preview_video,
                          preview_sbs=preview_sbs, progress=progress, in_flight=in_flight,
-                         keep_range=keep_range)
+                         keep_range=keep_range, frame_outputs=frame_outputs)
 
 
 # Frames a live source may run ahead of the matcher without --latest (then it waits).
@@ -315,14 +277,14 @@ class LiveFrames:
 def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None,
               depth=False, preview_video=None, preview_sbs=False, summary=None,
               progress=True, in_flight=None, keep_range=True, config=None,
-              **match_options):
+              frame_outputs=None, **match_options):
     """Match every stereo frame of a robot's log: a ROS 1 bag, a ROS 2 bag (folder,
     .db3 or .mcap) or a KITTI raw drive, as :func:`match_video` matches a video.
 
     log : path or csw.robot.logs.Log
         The log, or one opened by :func:`csw.read_log` (its topics, rig, tolerance).
     out_dir, suffix, overwrite, preview_video, preview_sbs, summary, progress,
-    in_flight, keep_range, **match_options
+    in_flight, keep_range, frame_outputs, **match_options
         As for :func:`match_video`; each summary entry holds its frame's ``stamp_ns``.
     bag_out : path, optional
         A new bag (.bag: ROS 1; .mcap; else a ROS 2 bag folder) with each frame's
@@ -337,16 +299,18 @@ def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None
     """
     from ..robot.logs import Log
 
-    config = _config(config, match_options)
+    config = resolved(config, match_options, "a stream")
     if isinstance(log, (str, os.PathLike)):  # opened here: closed here
         with closing(Log(log, colour=bag_out is not None or preview_sbs)) as opened:
             return match_log(opened, out_dir=out_dir, suffix=suffix, overwrite=overwrite,
                              bag_out=bag_out, depth=depth, preview_video=preview_video,
                              preview_sbs=preview_sbs, summary=summary, progress=progress,
-                             in_flight=in_flight, keep_range=keep_range, config=config)
+                             in_flight=in_flight, keep_range=keep_range, config=config,
+                             frame_outputs=frame_outputs)
     inputs = [log.path, *(log.rig.paths if log.rig is not None else ())]
     out_dir, summary = _check_outputs(config, inputs, out_dir, suffix, summary,
-                                      preview_video=preview_video, bag_out=bag_out)
+                                      preview_video=preview_video, bag_out=bag_out,
+                                      frame_outputs=frame_outputs)
     if bag_out is not None and log.calibration is None:
         raise OptionError("bag_out", f"{log.path}: the log gives no calibration for its "
                                      "rectified frames (no camera_info); give --rig")
@@ -370,7 +334,8 @@ def match_log(log, *, out_dir=None, suffix=".pfm", overwrite=False, bag_out=None
     return _match_stream(frames, info, config, out_dir=out_dir, suffix=suffix,
                          overwrite=overwrite, summary=summary, preview_video=preview_video,
                          preview_sbs=preview_sbs, progress=progress, in_flight=in_flight,
-                         keep_range=keep_range, rectifier=log.rectifier, publish=publish)
+                         keep_range=keep_range, rectifier=log.rectifier, publish=publish,
+                         frame_outputs=frame_outputs)
 
 
 class _Publisher:
@@ -398,14 +363,8 @@ class _Publisher:
         self.writer.discard()
 
 
-def _config(config, match_options):
-    if config is not None and match_options:
-        raise TypeError("give a stream its options or a resolved config, not both")
-    return resolve(**match_options) if config is None else config
-
-
 def _check_outputs(config, inputs, out_dir, suffix, summary, preview_video=None,
-                   bag_out=None):
+                   bag_out=None, frame_outputs=None):
     """Before any frame is read: the stream's outputs (out_dir, summary, preview_video,
     bag_out) checked against each other and the ``inputs``.  Returns (out_dir,
     summary)."""
@@ -416,10 +375,14 @@ def _check_outputs(config, inputs, out_dir, suffix, summary, preview_video=None,
         raise OptionError("suffix", f"must be one of {', '.join(suffixes('whole'))}, got "
                                     f"{suffix!r}")
     if config.range_known:
-        try:
-            check_range(f"map{suffix}", config.dmax, config.dmin)
-        except ValueError as exc:
-            raise OptionError("dmax", str(exc)) from None
+        check_range_of(f"map{suffix}", config.dmin, config.dmax)
+    for role, extra in (frame_outputs or {}).items():
+        if out_dir is None:
+            raise OptionError(role, "a frame's outputs go into --output-dir: give it")
+        if role not in FRAME_INFIX or str(extra).lower() not in role_suffixes(role):
+            raise OptionError(role, f"a frame's {role.replace('_', ' ')} takes a format, "
+                                    f"one of {', '.join(role_suffixes(role))}; got "
+                                    f"{extra!r}")
     for path in inputs:
         safety.protect(path)
     out_dir = Path(out_dir) if out_dir is not None else None
@@ -458,7 +421,7 @@ def _check_outputs(config, inputs, out_dir, suffix, summary, preview_video=None,
 
 def _match_stream(frames, info, config, *, out_dir, suffix, overwrite, summary,
                   preview_video, preview_sbs, progress, in_flight, keep_range,
-                  rectifier=None, publish=None):
+                  rectifier=None, publish=None, frame_outputs=None):
     """The run shared by videos and logs: ``frames`` (Frame) matched through
     Matcher.stream into the outputs checked by _check_outputs."""
     try:
@@ -476,7 +439,7 @@ def _match_stream(frames, info, config, *, out_dir, suffix, overwrite, summary,
                 raise OptionError(option, f"the folder {folder} is not writable")
         matcher = Matcher(config=config, keep_range=keep_range)
         try:
-            run = _Run(out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
+            run = _FrameRun(out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
                        info["rate"] or 30.0, progress, info["frames"] or None,
                        each_range=not (keep_range or config.range_known))
         except OSError as exc:  # its log beside the summary: the folder can't be written
@@ -488,6 +451,7 @@ def _match_stream(frames, info, config, *, out_dir, suffix, overwrite, summary,
             publish.discard()
         raise
     run.rectifier, run.publish = rectifier, publish
+    run.frame_outputs = dict(frame_outputs or {})
     run.extra = info.get("summary", dict)
     try:
         run.go(matcher, frames, in_flight)
@@ -623,7 +587,7 @@ class _Now:
         pass
 
 
-class _Run:
+class _FrameRun:
     """The bookkeeping of one video's run: outputs written as results come, the
     summary's entries kept on disk (csw.scale.batch.PairLog), latencies in an array."""
 
@@ -647,6 +611,7 @@ class _Run:
         self.stopped = None  # why the stream ended before its end, if it did
         self.rectifier = None  # raw frames rectified: their maps' sourceless pixels go
         self.publish = None  # a log's messages into a bag, per frame
+        self.frame_outputs = {}  # role -> format of the outputs beside each map
         self.extra = dict  # more of the summary: a log's topics and pairs, the frames a
         # live source dropped
         self.halt = None  # a write that stops the run (a full disk), once the frame is logged
@@ -654,6 +619,15 @@ class _Run:
 
     def map_path(self, index):
         return self.out_dir / (FRAME_NAME.format(index=index) + self.suffix)
+
+    def outputs(self, index):
+        """The frame's outputs (csw.io.outputs.PairOutputs): its map and the
+        frame_outputs asked for (their formats checked with the stream's outputs before
+        the run, each file by csw.io.atomic as it is written)."""
+        name = FRAME_NAME.format(index=index)
+        return PairOutputs({"output": self.map_path(index),
+                            **{role: self.out_dir / (name + FRAME_INFIX[role] + extra)
+                               for role, extra in self.frame_outputs.items()}})
 
     def go(self, matcher, frames, in_flight):
         """Match the frames, decoded ahead in a thread of their own and written behind
@@ -687,7 +661,8 @@ class _Run:
                 yield frame.left, frame.right
 
         try:
-            for result in matcher.stream(pairs(), in_flight=in_flight, errors="yield"):
+            for result in matcher.stream(pairs(), in_flight=in_flight, errors="yield",
+                                         want_confidence="confidence" in self.frame_outputs):
                 frame, started = waiting.popleft()
                 if isinstance(result, Exception):
                     behind.put(lambda frame=frame, result=result: self.add(
@@ -720,7 +695,7 @@ class _Run:
             self.size = [int(result.shape[1]), int(result.shape[0])]
             self.range = [s["dmin"], s["dmax"]]
             if self.out_dir is not None and not self.each_range:  # every map: stop now
-                check_range(f"map{self.suffix}", s["dmax"], s["dmin"])
+                check_map_range(f"map{self.suffix}", s["dmax"], s["dmin"])
         else:  # a range found on each frame: the summary's, and the colours', grows
             self.range = [min(self.range[0], s["dmin"]), max(self.range[1], s["dmax"])]
         status, error = "ok", None
@@ -730,7 +705,11 @@ class _Run:
                 status = "skipped"  # matched only for the preview; the map stays
             else:
                 try:
-                    write_disparity(path, result.disparity)
+                    outputs = self.outputs(frame.index)
+                    outputs.add_map(result.disparity)
+                    outputs.add_preview(result.disparity, s["dmin"], s["dmax"])
+                    outputs.add_float_map("confidence", result.confidence)
+                    outputs.write()
                 except ValueError as exc:  # a frame's own range more than the format holds
                     status, error = "failed", str(exc)
                 except OSError as exc:  # the frame fails; a full or read-only disk would
@@ -800,7 +779,8 @@ class _Run:
         if stamp is not None:  # a log's frame: its stamp, exact, and as people read it
             entry.update(stamp_ns=stamp, stamp=format_stamp(stamp))
         if self.out_dir is not None and status != "failed":
-            entry["output"] = str(self.map_path(index))
+            entry.update({role: str(path) for role, path in
+                          self.outputs(index).paths.items()})  # "output": the map
         self.log.add(self.log.done, entry)  # in the order they come
         self.bar.update()
         if callable(self.progress):

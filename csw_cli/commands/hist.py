@@ -47,7 +47,7 @@ def hist(ctx, images, dataset, plot, fmt, data_dir, download, verify, **_):
     from csw import read_image
     from csw.eval import plots
     from csw.eval.histogram import min_cost_histogram
-    from csw.matching.files import check_pair_outputs
+    from csw.io.outputs import PairOutputs
 
     if bool(images) == bool(dataset) or (images and len(images) != 2):
         raise click.UsageError("give either LEFT RIGHT or --dataset NAME")
@@ -55,7 +55,8 @@ def hist(ctx, images, dataset, plot, fmt, data_dir, download, verify, **_):
                               "threads", "preset", *params.OFF])
     with opt.library_errors():
         params.resolve(**options)  # a bad option fails before any file is read
-        check_pair_outputs(dict(zip(("left", "right"), images, strict=False)), {"plot": plot})
+        PairOutputs({"plot": plot},
+                    dict(zip(("left", "right"), images, strict=False))).check_paths()
     if dataset:
         pair = next(opt.pairs([dataset], [], data_dir, download, verify))
         left, right, top, title = pair.left, pair.right, pair.dmax, dataset

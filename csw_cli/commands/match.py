@@ -143,14 +143,14 @@ MATCH_HELP = opt.sectioned(
 @opt.option("threads", short="-j")
 @click.option("--preview", type=click.Path(dir_okay=False),
               help="Also write a colour PNG of the map (Turbo, invalid black) over a colour "
-                   "bar of its values. Many pairs: .png, for NAME.preview.png beside each "
-                   "map.")
+                   "bar of its values. Many pairs, a video's or a log's frames: .png, for "
+                   "NAME.preview.png beside each map.")
 @click.option("--cost-map", type=click.Path(dir_okay=False),
               help="Also write the minimum-cost map m as PFM (inf where invalid).")
 @click.option("--confidence", type=click.Path(dir_okay=False),
               help="Also write the confidence (0..1: how much the best cost beats the "
-                   "second best) as PFM (or .npy, .tif, .zarr). Many pairs: the format, "
-                   "e.g. .pfm: NAME.confidence.pfm.")
+                   "second best) as PFM (or .npy, .tif, .zarr). Many pairs, frames: the "
+                   "format, e.g. .pfm: NAME.confidence.pfm.")
 @opt.calibration_options(beside_left=True)
 @click.option("--depth", type=click.Path(dir_okay=False),
               help=f"Also write the depth map ({', '.join(suffixes('depth'))}), from the "
@@ -274,8 +274,8 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     settings = opt.given(ctx, MATCH_OPTIONS)
     log_only = [name for name in LOG_ONLY if ctx.get_parameter_source(name).name != "DEFAULT"]
     if left is not None and not sbs and is_log(left):
-        return match_log(ctx, left, right, output_dir, suffix, overwrite, summary, rigs,
-                         alpha, preview_video, preview_sbs, range_each_frame, settings)
+        return log_mode(ctx, left, right, output_dir, suffix, overwrite, summary, rigs,
+                        alpha, preview_video, preview_sbs, range_each_frame, settings)
     if log_only:
         raise click.UsageError(f"--{log_only[0].replace('_', '-')} is for a log (a bag, "
                                ".mcap, .db3 or a KITTI raw drive)")
@@ -287,8 +287,8 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
         raise click.UsageError("--latest is for a live source (- or /dev/videoN, with "
                                "--sbs)")
     if sbs or (left is not None and is_video(left)):
-        return match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
-                           preview_video, preview_sbs, range_each_frame, settings, latest)
+        return video_mode(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
+                          preview_video, preview_sbs, range_each_frame, settings, latest)
     if preview_video or preview_sbs or range_each_frame:
         raise click.UsageError("--preview-video, --preview-sbs and --range-each-frame are "
                                "for video input")
@@ -417,13 +417,20 @@ def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, c
 
 
 # Options that name one pair's outputs, or that only batches and single pairs take.
-NOT_FOR_VIDEO = ("output", "manifest", "preview", "cost_map", "confidence", "depth", "cloud",
-                 "depth_preview", "memory_limit", "workers", "scheduler", "rigs",
-                 "rectified_left", "calib")
+NOT_FOR_VIDEO = ("output", "manifest", "cost_map", "depth", "cloud", "depth_preview",
+                 "memory_limit", "workers", "scheduler", "rigs", "rectified_left", "calib")
 
 
-def match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
-                preview_video, preview_sbs, range_each_frame, settings, latest=False):
+def frame_outputs(params):
+    """A video's or a log's outputs beside each frame's map, as a batch's beside each
+    pair's (--preview .png: NNNNNN.preview.png; --confidence .pfm)."""
+    return {role: str(value) if str(value).startswith(".") else Path(value).suffix
+            for role, value in (("preview", params["preview"]),
+                                ("confidence", params["confidence"])) if value}
+
+
+def video_mode(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
+               preview_video, preview_sbs, range_each_frame, settings, latest=False):
     """The video form: two videos or one side-by-side video, a map per frame into
     OUTPUT_DIR and/or a preview video."""
     from csw.scale.stream import match_video as run
@@ -450,7 +457,8 @@ def match_video(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
             report = run(left, right, sbs=sbs, out_dir=output_dir, suffix=suffix,
                          overwrite=overwrite, preview_video=preview_video,
                          preview_sbs=preview_sbs, summary=summary,
-                         keep_range=not range_each_frame, latest=latest, config=config)
+                         keep_range=not range_each_frame, latest=latest, config=config,
+                         frame_outputs=frame_outputs(ctx.params))
     except OSError as exc:
         raise write_error(exc) from None
     report_stream(report, output_dir, summary, preview_video, range_each_frame)
@@ -507,8 +515,8 @@ LOG_ONLY = ("left_topic", "right_topic", "stamp_tolerance", "bag_out", "bag_dept
 LOG_TAKES = ("rigs", "alpha", *LOG_ONLY)
 
 
-def match_log(ctx, log_path, right, output_dir, suffix, overwrite, summary, rigs, alpha,
-              preview_video, preview_sbs, range_each_frame, settings):
+def log_mode(ctx, log_path, right, output_dir, suffix, overwrite, summary, rigs, alpha,
+             preview_video, preview_sbs, range_each_frame, settings):
     """The log form: a bag or a KITTI drive, a map per frame into OUTPUT_DIR, a bag of
     messages (--bag-out), a preview video, or any of them."""
     from csw.robot.logs import read_log
@@ -545,7 +553,7 @@ def match_log(ctx, log_path, right, output_dir, suffix, overwrite, summary, rigs
                              bag_out=p["bag_out"], depth=p["bag_depth"],
                              preview_video=preview_video, preview_sbs=preview_sbs,
                              summary=summary, keep_range=not range_each_frame,
-                             config=config)
+                             config=config, frame_outputs=frame_outputs(ctx.params))
             finally:
                 log.close()
     except OSError as exc:

@@ -70,10 +70,10 @@ def sweep(ctx, datasets, dataset_dirs, cost, csw_rules, taus, csw_margins, windo
       csw sweep -d teddy --tau-range 200:1200:200 --plot teddy.png
     """
     from csw import sweep_rows
-    from csw.matching.files import check_pair_outputs
+    from csw.io.outputs import PairOutputs
 
     with opt.library_errors():
-        check_pair_outputs({}, {"plot": plot})
+        PairOutputs({"plot": plot}).check_paths()
         stages = params.experiment_stages(**opt.given(ctx, ["preset", *params.OFF]))
     if plot and len(datasets) + len(dataset_dirs) != 1:
         raise click.UsageError("--plot draws one dataset; give a single --dataset")

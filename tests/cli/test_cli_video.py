@@ -220,16 +220,16 @@ def test_a_full_disk_stops_the_run_cleanly_with_its_summary_and_preview(tmp_path
     preview of the frames done and writing its summary (exit 1)."""
     import errno
 
-    from csw.scale import stream
+    from csw.io.outputs import PairOutputs
 
-    real = stream.write_disparity
+    real = PairOutputs.write
 
-    def full_from_frame_3(path, values):
-        if path.name >= "000003":
+    def full_from_frame_3(outputs):  # a frame's files: csw.io.outputs, as every pair's
+        if outputs.paths["output"].name >= "000003":
             raise OSError(errno.ENOSPC, "No space left on device")
-        return real(path, values)
+        return real(outputs)
 
-    monkeypatch.setattr(stream, "write_disparity", full_from_frame_3)
+    monkeypatch.setattr(PairOutputs, "write", full_from_frame_3)
     video = sbs_mjpeg(tmp_path / "v.avi", 8)
     result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--dmax", 15,
                     "--preview-video", tmp_path / "view.mp4")
@@ -313,17 +313,18 @@ def test_range_each_frame_keeps_the_widest_range_when_a_deep_scene_comes_first(t
 def test_a_ctrl_c_during_a_frame_s_save_keeps_that_frame_whole(tmp_path, monkeypatch):
     """The frame being saved when Ctrl-C comes is written whole (map and summary entry),
     then the run stops."""
+    from csw.io.outputs import PairOutputs
     from csw.scale import stream
 
-    real = stream.write_disparity
+    real = PairOutputs.write
 
-    def ctrl_c_while_saving_frame_2(path, values):
-        if path.name == "000002.pfm":
+    def ctrl_c_while_saving_frame_2(outputs):
+        if outputs.paths["output"].name == "000002.pfm":
             os.kill(os.getpid(), signal.SIGINT)
             sum(range(10**5))  # were the save not held, the handler would run here
-        return real(path, values)
+        return real(outputs)
 
-    monkeypatch.setattr(stream, "write_disparity", ctrl_c_while_saving_frame_2)
+    monkeypatch.setattr(PairOutputs, "write", ctrl_c_while_saving_frame_2)
     saved = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         with pytest.raises(KeyboardInterrupt):

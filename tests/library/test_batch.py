@@ -144,7 +144,7 @@ def test_a_batch_pair_is_a_single_pair_and_can_be_striped(folders, monkeypatch):
     """One path from a pair to files: a batch pair's map has the bytes of the same pair
     matched alone, and a pair too big for memory is matched in stripes (forced here),
     to the same bytes."""
-    import csw.matching.files
+    import csw.scale.files
 
     root, _ = folders
     jobs = csw.jobs_from_folders(root / "left", root / "right")
@@ -152,7 +152,7 @@ def test_a_batch_pair_is_a_single_pair_and_can_be_striped(folders, monkeypatch):
     csw.match_files(jobs[0].left, jobs[0].right, root / "one.pfm", dmax=12)
     whole = (root / "out" / f"{jobs[0].name}.pfm").read_bytes()
     assert whole == (root / "one.pfm").read_bytes()
-    monkeypatch.setattr(csw.matching.files, "too_big_for_whole", lambda *a, **k: True)
+    monkeypatch.setattr(csw.scale.files, "too_big_for_whole", lambda *a, **k: True)
     report = csw.match_many(jobs[:1], root / "striped", dmax=12, progress=False)
     assert report["pairs"][0]["stripes"] >= 1
     assert (root / "striped" / f"{jobs[0].name}.pfm").read_bytes() == whole

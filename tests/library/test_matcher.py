@@ -83,3 +83,17 @@ def test_keep_range_false_finds_each_pairs_own_range():
     assert results[1].settings["dmax"] > results[0].settings["dmax"] + 20
     with pytest.raises(TypeError, match="keep_range"):
         csw.Matcher(keep_range="no")
+
+
+def test_a_matcher_keeps_a_bounded_number_of_set_ups(monkeypatch):
+    """A batch's one Matcher sees pairs of many sizes (or calibrations): it keeps the
+    newest KEPT_SET_UPS set-ups, not one a pair."""
+    from csw.matching import matcher as matcher_module
+
+    monkeypatch.setattr(matcher_module, "KEPT_SET_UPS", 2)
+    matcher = csw.Matcher(dmax=4, preset="raw")
+    rng = np.random.default_rng(0)
+    for width in (32, 33, 34, 35):
+        pair = rng.integers(0, 255, (2, 16, width), dtype=np.uint8)
+        matcher.match(pair[0], pair[1])
+    assert [key[2] for key in matcher._ready] == [(16, 34), (16, 35)]

@@ -9,9 +9,9 @@ from video_fixtures import damage_jpeg_frame, write_frames
 
 import csw
 from csw.data.synth import render, write_sequence
-from csw.io.pictures import bar
+from csw.io.pictures import DisparityColours, bar, disparity_colours
 from csw.io.video import VideoError, VideoReader, write_video
-from csw.scale.stream import DisparityColours, disparity_colours, match_video, video_frames
+from csw.scale.stream import match_video, video_frames
 
 av = pytest.importorskip("av")  # in the test extras: skipped only outside them
 

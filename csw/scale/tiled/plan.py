@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from ...io.formats import TIFF_TILE
 from ...io.sources import open_source
 from ...kernels import runtime, sgm
+from ...matching.disparity_range import assumed_range
 from ...matching.pipeline import filter_overlap, row_overlap
 from ...matching.stages import BAND_BYTES, MAP_BYTES, active, needs_extras
 
@@ -142,9 +143,7 @@ def too_big_for_whole(left, config, memory_limit=None):
     memory_limit = DEFAULT_MEMORY_LIMIT if memory_limit is None else memory_limit
     source = open_source(left, "left", probe=False)
     height, width = source.shape
-    if not config.range_known:  # not known yet: the widest it can be
-        config = config.replace(dmin=0 if config.dmin == "auto" else config.dmin,
-                                dmax=width // 2 if config.dmax == "auto" else config.dmax)
+    config = assumed_range(config, width)  # not known yet: csw's one stand-in
     whole = plan(height, width, config, stripe_rows=height, colour=source.colour)
     return whole.bytes_per_stripe > memory_limit
 

@@ -10,19 +10,19 @@ stripe at a time, in the formats of csw.io.formats, and renamed into place toget
 
 import os
 import shutil
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ...config.params import resolve
-from ...io.atomic import atomic_write_all, make_temporary_dir, temporary_prefix
-from ...io.formats import check_range, format_of, preview_stripes, stripe_writer
+from ...io.atomic import make_temporary_dir
+from ...io.formats import format_of, preview_stripes, stripe_writer, suffixes
+from ...io.outputs import PairOutputs
 from ...io.progress import progress_bar
-from ...io.safety import check_target
 from ...io.sources import open_source
+from ...matching import disparity_range
+from ...matching.matcher import CandidateCounts, resolved
 from ...matching.pipeline import is_row_local, match_rows
 from ...matching.setup import set_up
 from ..executor import run_tasks
@@ -31,7 +31,7 @@ from .tasks import create_store, filter_stripe, match_stripe, store_blocks
 
 
 @dataclass
-class TiledResult:
+class TiledResult(CandidateCounts):
     """What :func:`match_tiled` returns (the maps themselves are in the output files).
 
     tasks: the stripe tasks' counters summed over both passes: ``count``, ``seconds``
@@ -61,13 +61,10 @@ class TiledResult:
         """Share (0..1) of pixels without a disparity."""
         return self.invalid / max(self.shape[0] * self.shape[1], 1)
 
-    @property
-    def work_saved(self):
-        return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
-
 
 def match_tiled(left, right, output, *, confidence=None, preview=None, memory_limit=None,
-                stripe_rows=None, client=None, progress=False, config=None, **options):
+                stripe_rows=None, client=None, progress=False, config=None, outputs=None,
+                calibration=None, **options):
     """Match a pair stripe by stripe and write the map to ``output``; the result equals
     :func:`csw.match`'s bit for bit, for every preset and stage.
 
@@ -93,6 +90,10 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
         workers can write.
     progress : bool
         A progress bar over the stripes, on stderr.
+    outputs : csw.io.outputs.PairOutputs, optional
+        These paths checked already (csw.match_files); default: checked here.
+    calibration : csw.Calibration, optional
+        The pair's, whose ndisp sets the range when no dmax was given.
     **options
         Matching options, as for :func:`csw.match`; or ``config``, an option set that
         csw.config.params.resolve made already.
@@ -101,22 +102,21 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
     -------
     TiledResult
     """
-    if config is not None and options:
-        raise TypeError("give match_tiled its options or a resolved config, not both")
-    config = resolve(**options) if config is None else config
+    config = resolved(config, options, "match_tiled")
+    alone = outputs is None
+    if alone:  # called alone, not by csw.match_files: its outputs checked here, once
+        format_of(output, "stripes")
+        if confidence is not None:
+            format_of(confidence, "confidence")
+        outputs = PairOutputs({"output": output, "confidence": confidence,
+                               "preview": preview},
+                              allowed={"output": suffixes("stripes")})
+        outputs.check_targets()
     output = Path(output)
-    check_target(output, "output", folder_ok=output.suffix.lower() == ".zarr")
-    if confidence is not None:
-        check_target(confidence, "confidence",
-                     folder_ok=Path(confidence).suffix.lower() == ".zarr")
     # A link is followed: the store and the temporaries go beside what it points to.
     output = Path(os.path.realpath(output)) if output.is_symlink() else output
     if confidence is not None and Path(confidence).is_symlink():
         confidence = Path(os.path.realpath(confidence))
-    format_of(output, "stripes")
-    check_range(output, config.dmax, config.dmin)
-    if confidence is not None:
-        format_of(confidence, "confidence")
     if client is not None and not all(isinstance(p, (str, Path)) for p in (left, right)):
         raise ValueError("on a cluster, give left and right as paths the workers can read")
     limit = parse_size(memory_limit) if memory_limit is not None else None
@@ -124,6 +124,8 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
     left, right = (open_source(image, side, striped=striped)
                    for image, side in ((left, "left"), (right, "right")))
     height, width = left.shape
+    if alone:
+        outputs.check_range(disparity_range.known_range(config, width, calibration))
     layout = []  # the plan, once made: tau auto samples each row from its own band
 
     def make_plan(decided):
@@ -154,10 +156,11 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
 
     ready = set_up(config, (height, width), left.dtype, right=(right.shape, right.dtype),
                    sample_min_cost=sample_min_cost, make_plan=make_plan,
-                   confidence=confidence is not None, shrunk=shrunk)
+                   confidence=confidence is not None, shrunk=shrunk,
+                   calibration=calibration)
     layout = ready.plan
     start_time = time.perf_counter()
-    totals = _run_passes(left, right, output, confidence, preview, layout, ready.args,
+    totals = _run_passes(left, right, output, confidence, outputs, layout, ready.args,
                          ready.config.stages, client, progress)
     return TiledResult(output, (height, width), layout, totals.pop("evaluated"),
                        totals.pop("candidates"), ready.settings,
@@ -166,7 +169,7 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
                        Path(confidence) if confidence is not None else None, totals)
 
 
-def _run_passes(left, right, output, confidence, preview, layout, args, st, client,
+def _run_passes(left, right, output, confidence, outputs, layout, args, st, client,
                 progress):
     """Both passes into temporary stores beside the output, then the outputs; the
     temporary stores are removed whatever happens."""
@@ -209,35 +212,19 @@ def _run_passes(left, right, output, confidence, preview, layout, args, st, clie
                     totals["count"] += 1
                     bar.update()
         # Every file is written before any is renamed into place: all of them or none.
-        items = []
-        if preview is not None:
-            items.append((Path(preview), preview_stripes(
-                shape, store_blocks(final["disparity"]), args["dmax"], args["dmin"])))
-        stores = ((output, final["disparity"]), (confidence, final.get("confidence")))
-        for path, store in stores:
+        if "preview" in outputs:
+            outputs.add("preview", preview_stripes(
+                shape, store_blocks(final["disparity"]), args["dmax"], args["dmin"]))
+        stores = (("output", output, final["disparity"]),
+                  ("confidence", confidence, final.get("confidence")))
+        for role, path, store in stores:
             if path is not None and Path(path).suffix.lower() != ".zarr":
-                items.append((Path(path), stripe_writer(path, shape, store_blocks(store))))
-        atomic_write_all(items)
-        for path, store in stores:
+                outputs.add(role, stripe_writer(path, shape, store_blocks(store)))
+        outputs.write()
+        for role, path, store in stores:
             if path is not None and Path(path).suffix.lower() == ".zarr":
-                _replace_dir(store, path)
+                outputs.place_store(role, store)
         return totals
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
-
-def _replace_dir(tmp, path):
-    """Put folder ``tmp`` at ``path`` (its links resolved by the caller), replacing an
-    earlier zarr store there; the old store goes through a temporary name, which the
-    next run removes if this one is killed in between."""
-    path = Path(path)
-    old = None
-    if path.exists():
-        if not (path / "zarr.json").is_file():
-            raise ValueError(f"{path} exists and is not a zarr store; csw won't replace it")
-        old = Path(tempfile.mkdtemp(prefix=temporary_prefix(path.name), suffix=".tmp",
-                                    dir=path.parent))
-        os.replace(path, old / "store")
-    os.replace(tmp, path)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)

@@ -2,53 +2,31 @@
 This is where csw decides how a pair is matched: whole in memory
 (:mod:`csw.matching.matcher`), or in row stripes (:mod:`csw.scale.tiled`) when asked, when
 a format needs it, or when the pair would not fit the memory limit.  Both give the same
-map, bit for bit.
+map, bit for bit.  It sits in csw.scale, above both ways; a pair's outputs are checked
+and written by csw.io.outputs.PairOutputs, as a batch's, a stripe plan's and a stream's.
 """
 
 from pathlib import Path
-
-import numpy as np
 
 from .. import kernels
 from ..camera import calibration as calib_module
 from ..camera.geometry import check_max_depth
 from ..camera.geometry import writers as three_d_writers
-from ..config.params import OptionError, resolve
-from ..io import safety
-from ..io.atomic import atomic_write_all
-from ..io.formats import (
-    check_range,
-    disparity_writer,
-    pfm_writer,
-    png_writer,
-    suffixes,
-)
+from ..config.params import OptionError
+from ..io.formats import png_writer, suffixes
 from ..io.images import ImageError, read_colour, read_image
-from ..io.pictures import disparity_picture
+from ..io.outputs import PairOutputs
 from ..io.sources import open_source
-from ..scale.tiled import match_tiled, too_big_for_whole
-from . import disparity_range
-from .matcher import Matcher
-
-# What each companion output may be, by role (csw.io.formats.suffixes).
-COMPANIONS = {"preview": suffixes("picture"), "cost_map": suffixes("costs"),
-              "plot": suffixes("picture"), "depth": suffixes("depth"),
-              "cloud": suffixes("cloud"), "depth_preview": suffixes("picture"),
-              "rectified_left": suffixes("picture")}
-
-
-# An upper bound of each output's size, per pixel: float maps, a 16-bit PNG map, RGB
-# pictures, a PLY's point (3 floats and 3 bytes).  A striped match keeps temporary
-# stores of about 8 more beside its map.
-BYTES_PER_PIXEL = {"output": 4, "confidence": 4, "preview": 3, "cost_map": 4, "depth": 4,
-                   "cloud": 15, "depth_preview": 3, "rectified_left": 3}
+from ..matching import disparity_range
+from ..matching.matcher import Matcher, resolved
+from .tiled import match_tiled, too_big_for_whole
 
 
 def match_files(left, right, output, *, confidence=None, preview=None, cost_map=None,
                 calib=None, depth=None, cloud=None, depth_preview=None, max_depth=None,
                 units=None, memory_limit=None, client=None, progress=False,
                 keep_scratch=False, config=None, rig=None, alpha=0.0, rectified_left=None,
-                frame="rectified", **options):
+                frame="rectified", matcher=None, **options):
     """Match the pair in files ``left`` and ``right`` and write the map to ``output``.
 
     Parameters
@@ -87,6 +65,9 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     keep_scratch : bool
         Keep this thread's scratch for a next match (a batch), rather than give it back
         before the outputs are written (one pair: a lower peak).
+    matcher : csw.Matcher, optional
+        Match a whole pair with this Matcher (a batch's, made once, whose set-ups are
+        kept from pair to pair), its config the one given.
     **options
         Matching options, as for :func:`csw.match`; or ``config``, a
         csw.config.params.Config resolved already (a batch resolves once for all pairs).
@@ -103,10 +84,8 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     csw.ImageError
         An input that can't be read (its ``option`` names it: "left" or "right").
     """
-    if config is not None and options:
-        raise TypeError("give match_files its options or a resolved config, not both")
     # First, and once: a bad option fails before any file is read.
-    config = resolve(**options) if config is None else config
+    config = resolved(config, options, "match_files")
     _check_rig_options(rig, calib, frame)
     try:
         shape = open_source(left, "left", probe=False, striped=memory_limit is not None).shape
@@ -127,48 +106,48 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     calibration = rectifier.calibration if rectifier else calib_module.resolve(calib, left)
     if calibration is not None:
         calibration.check_size(shape)
-    config = disparity_range.decide(config, shape[1], calibration)
-    outputs = {"output": output, "confidence": confidence, "preview": preview,
-               "cost_map": cost_map, "depth": depth, "cloud": cloud,
-               "depth_preview": depth_preview, "rectified_left": rectified_left}
+    paths = {"output": output, "confidence": confidence, "preview": preview,
+             "cost_map": cost_map, "depth": depth, "cloud": cloud,
+             "depth_preview": depth_preview, "rectified_left": rectified_left}
     if rectified_left is not None and rectifier is None:
         raise OptionError("rectified_left", "the rectified left image needs a rig (--rig)")
     rig_files = {f"rig {i + 1}": path for i, path in
                  enumerate(rectifier.rig.paths if rectifier is not None else ())}
-    check_pair_outputs({"left": left, "right": right,
-                        "calib": calib if isinstance(calib, (str, Path)) else None,
-                        **rig_files}, outputs)
-    three_d = [name for name in ("depth", "cloud", "depth_preview") if outputs[name]]
+    outputs = PairOutputs(paths, {"left": left, "right": right,
+                                  "calib": calib if isinstance(calib, (str, Path)) else None,
+                                  **rig_files})
+    outputs.check_paths()
+    three_d = [name for name in ("depth", "cloud", "depth_preview") if name in outputs]
     check_max_depth(max_depth)
-    striped = _use_stripes(left, right, output, confidence, memory_limit, client, config)
+    # The range as far as it is known before the pixels (None: found from the pair);
+    # it is decided once, in the match's set-up.
+    known = disparity_range.known_range(config, shape[1], calibration)
+    striped = _use_stripes(left, right, output, confidence, memory_limit, client,
+                           disparity_range.assumed_range(config, shape[1], calibration))
     if striped and rectifier is not None:
         raise OptionError("rig", "a raw pair from a rig is matched whole: drop "
                                  "--memory-limit, --workers and .tif/.zarr outputs")
-    safety.check_space((path, shape[0] * shape[1] * BYTES_PER_PIXEL[name]
-                        + (8 * shape[0] * shape[1] if striped and name == "output" else 0))
-                       for name, path in outputs.items() if path is not None)
+    outputs.check_space(shape, striped)
     if three_d and calibration is None:
         raise OptionError("calib", f"the {three_d[0].replace('_', ' ')} needs the pair's "
                                    "calibration: give one (a calib.txt, KITTI calib, "
                                    "OpenCV Q, or the focal length and baseline)")
-    try:
-        check_range(output, config.dmax, config.dmin)
-    except ValueError as exc:
-        raise OptionError("dmax", str(exc)) from None
+    outputs.check_range(known)
     if striped:
         for name in ("cost_map", *three_d):
-            if outputs[name] is not None:
+            if name in outputs:
                 raise OptionError(name, f"the {name.replace('_', ' ')} is not written for "
                                         "pairs matched in stripes (a large pair, a memory "
                                         "limit, a cluster, .tif/.zarr)")
         result = match_tiled(left, right, output, confidence=confidence, preview=preview,
                              memory_limit=memory_limit, client=client, progress=progress,
-                             config=config)
+                             config=config, outputs=outputs, calibration=calibration)
         return _noted(result, calibration)
     images = [_read(path, name) for name, path in (("left", left), ("right", right))]
     if rectifier is not None:
         images = rectifier.rectify(*images)
-    result = Matcher(pixels=None, config=config).match(*images, confidence is not None)
+    matcher = matcher or Matcher(pixels=None, config=config)
+    result = matcher.match(*images, confidence is not None, calibration=calibration)
     if rectifier is not None:
         rectifier.invalidate(result.disparity)
     # One pair: its outputs are written next, and scratch kept for a next match would
@@ -176,27 +155,21 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     if not keep_scratch:
         kernels.workspace.for_this_thread().release()
     disp = result.disparity
-    writers = [(output, disparity_writer(output, disp))]
-    if preview is not None:
-        used = result.settings
-        writers.append((preview, png_writer(disparity_picture(disp, used["dmin"],
-                                                              used["dmax"]))))
-    if cost_map is not None:
-        m = np.where(result.min_cost >= 0, result.min_cost, np.inf).astype(np.float32)
-        writers.append((cost_map, pfm_writer(m)))
-    if confidence is not None:
-        writers.append((confidence, pfm_writer(result.confidence)))
+    outputs.add_map(disp)
+    outputs.add_preview(disp, result.settings["dmin"], result.settings["dmax"])
+    outputs.add_cost_map(result.min_cost)
+    outputs.add_float_map("confidence", result.confidence)
     colours = read_colour(left) if cloud is not None or rectified_left is not None \
         else None
     if rectifier is not None and colours is not None:
         colours = rectifier.rectify_one(colours, 0)
         if rectified_left is not None:
-            writers.append((rectified_left, png_writer(colours)))
+            outputs.add("rectified_left", png_writer(colours))
     if three_d:
         rotation = rectifier.r1.T if rectifier is not None and frame == "camera" else None
-        writers += three_d_writers(disp, calibration, depth, cloud, depth_preview, colours,
-                                   max_depth, units, rotation)
-    atomic_write_all(writers)
+        outputs.add_items(three_d_writers(disp, calibration, depth, cloud, depth_preview,
+                                          colours, max_depth, units, rotation))
+    outputs.write()
     return _noted(result, calibration)
 
 
@@ -240,14 +213,3 @@ def _use_stripes(left, right, output, confidence, memory_limit, client, config):
         exc.option = "left"
         raise
 
-
-def role_suffixes(role):
-    """The suffixes an output of ``role`` may have: a companion's (COMPANIONS), a
-    confidence map's float formats, else the map formats."""
-    return COMPANIONS.get(role) or suffixes("confidence" if role == "confidence" else "map")
-
-
-def check_pair_outputs(inputs, outputs):
-    """Before any work: csw.io.safety.check_outputs with each output's suffixes by its
-    role (role_suffixes)."""
-    safety.check_outputs(inputs, outputs, {name: role_suffixes(name) for name in outputs})
