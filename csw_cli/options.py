@@ -296,3 +296,9 @@ def calibration(ctx_params):
     with library_errors():
         return from_options(*(ctx_params[k] for k in ("calib", "focal", "baseline", "cx",
                                                        "cy", "doffs", "calib_units")))
+
+
+def write_error(exc):
+    """The one-line error (exit 1) for an OSError while writing."""
+    where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+    return click.ClickException(f"can't write{where}: {exc.strerror or exc}")

@@ -1,13 +1,16 @@
-"""``csw match``: one rectified pair in, one disparity map out; or many pairs into a folder."""
+"""``csw match``: one rectified pair in, one disparity map out.  The command takes every
+mode's options and sends many pairs to match_many.py, videos, live sources and robot
+logs to match_frames.py."""
 
 import os
-from pathlib import Path
 
 import click
 
 from csw.io.formats import map_formats_text, suffixes
 
 from .. import options as opt
+from .match_frames import LOG_ONLY, log_mode, video_mode
+from .match_many import many_mode
 
 # The matching options csw match passes on when given (the library fills in the rest).
 MATCH_OPTIONS = ["preset", "engine", "cost", "window", "dmin", "dmax", "csw", "csw_rule",
@@ -48,12 +51,6 @@ def summary_line(result):
             f"{result.seconds:.3f} s (compile {result.compile_seconds:.2f} s), evaluated "
             f"{100.0 * result.evaluated / max(result.candidates, 1):.1f}% of candidates, "
             f"invalid {100.0 * result.invalid_share:.1f}%{notes}")
-
-
-def write_error(exc):
-    """The one-line error (exit 1) for an OSError while writing."""
-    where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
-    return click.ClickException(f"can't write{where}: {exc.strerror or exc}")
 
 
 def memory_size(ctx, param, value):
@@ -267,7 +264,6 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
       csw match drive.mcap -O maps/ --bag-out stereo.mcap --dmax 64
       ffmpeg -i cam.mkv -f mjpeg - | csw match - --sbs -O maps/ --latest --dmax 64
     """
-    from csw.config import params
     from csw.io.video import is_live, is_video
     from csw.robot.logs import is_log
 
@@ -298,28 +294,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     many = manifest is not None or output_dir is not None or \
         (left is not None and os.path.isdir(left))
     if many:
-        if rectified_left:
-            raise click.UsageError("--rectified-left is for one pair; csw rectify writes "
-                                   "a folder's rectified images")
-        if output or cost_map or memory_limit:
-            raise click.UsageError("-o, --cost-map and --memory-limit are for one pair; many "
-                                   "pairs write into --output-dir")
-        if bool(manifest) == (left is not None):
-            raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")
-        if left is not None and not os.path.isdir(left):
-            raise click.UsageError(f"{left} is a file: --output-dir is for many pairs (LEFT "
-                                   "and RIGHT folders, or --manifest); for one pair give "
-                                   "-o FILE")
-        if left is not None and (right is None or not os.path.isdir(right)):
-            raise click.UsageError("with a LEFT folder, RIGHT must be a folder too")
-        with opt.library_errors():
-            config = params.resolve(**settings)  # before the manifest is read, and once
-        calibration = opt.calibration(ctx.params)
-        outputs = dict(three_d, preview=preview, confidence=confidence)
-        if rigs:
-            outputs.update(rig=batch_rig(rigs, left, manifest), alpha=alpha)
-        return match_batch(left, right, manifest, output_dir, suffix, overwrite, summary,
-                           config, workers, scheduler, calibration, outputs)
+        return many_mode(ctx, settings, three_d)
     if left is None or right is None:
         raise click.UsageError("give LEFT and RIGHT images (or folders with --output-dir)")
     if output is None:
@@ -353,220 +328,10 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
                                  rig=rig, alpha=alpha, rectified_left=rectified_left,
                                  frame=frame, **three_d, **settings)
     except OSError as exc:
-        raise write_error(exc) from None
+        raise opt.write_error(exc) from None
     written = [output, preview, cost_map, confidence, three_d["depth"], three_d["cloud"],
                three_d["depth_preview"], rectified_left]
     click.echo("wrote " + ", ".join(str(path) for path in written if path), err=True)
     click.echo(summary_line(result), err=True)
     for note in getattr(result, "notes", []):
         click.echo(f"csw: {note}", err=True)
-
-
-def batch_rig(rigs, left_dir, manifest):
-    """The rig of a batch of raw pairs, checked against (and its image size, when the
-    file doesn't give it, taken from) the first pair's left image that can be read."""
-    from csw import jobs_from_folders, jobs_from_manifest
-    from csw.camera.rig import read_rig
-    from csw.scale.batch import first_size
-
-    with opt.library_errors("--manifest" if manifest else "LEFT"):
-        jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left_dir,
-                                                                               left_dir)
-        size = first_size(jobs)
-    with opt.library_errors("--rig"):
-        rig = read_rig(*rigs, size=size)
-        if size is not None:  # before the maps are built for the rig's size
-            rig.check_size(size, "the batch's first left image")
-        return rig
-
-
-def match_batch(left, right, manifest, output_dir, suffix, overwrite, summary, config,
-                workers=None, scheduler=None, calibration=None, outputs=None):
-    """The batch form: pairs from two folders or a manifest, into OUTPUT_DIR, with the
-    resolved ``config``; ``outputs``: each pair's other outputs' formats, and the 3-D
-    options."""
-    from csw import jobs_from_folders, jobs_from_manifest, match_many
-    from csw.scale.distributed import cluster
-
-    if output_dir is None:
-        raise click.UsageError("matching many pairs needs --output-dir DIR")
-    out = Path(output_dir)
-    with opt.library_errors("--manifest" if manifest else "LEFT"):
-        jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left, right)
-    try:
-        with opt.library_errors(), cluster(workers, scheduler) as client:
-            report = match_many(jobs, out, suffix=suffix, overwrite=overwrite, progress=True,
-                                summary=summary, client=client, calib=calibration,
-                                config=config, **(outputs or {}))
-    except OSError as exc:
-        raise write_error(exc) from None
-    counts = report["counts"]
-    summary_path = summary or out / "summary.json"
-    click.echo(f"{counts['ok']} matched, {counts['skipped']} skipped (output exists; "
-               f"--overwrite redoes them), {counts['failed']} failed; summary in "
-               f"{summary_path}", err=True)
-    for entry in report["failed"]:
-        click.echo(f"failed: {entry['name']}: {entry['error']}", err=True)
-    for name, note in report["noted"]:
-        click.echo(f"csw: {name}: {note}", err=True)
-    if report["notes"] > len(report["noted"]):
-        click.echo(f"csw: {report['notes'] - len(report['noted'])} more note(s) in "
-                   f"{summary_path}", err=True)
-    if counts["failed"]:
-        raise SystemExit(1)
-
-
-# Options that name one pair's outputs, or that only batches and single pairs take.
-NOT_FOR_VIDEO = ("output", "manifest", "cost_map", "depth", "cloud", "depth_preview",
-                 "memory_limit", "workers", "scheduler", "rigs", "rectified_left", "calib")
-
-
-def frame_outputs(params):
-    """A video's or a log's outputs beside each frame's map, as a batch's beside each
-    pair's (--preview .png: NNNNNN.preview.png; --confidence .pfm)."""
-    return {role: str(value) if str(value).startswith(".") else Path(value).suffix
-            for role, value in (("preview", params["preview"]),
-                                ("confidence", params["confidence"])) if value}
-
-
-def video_mode(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
-               preview_video, preview_sbs, range_each_frame, settings, latest=False):
-    """The video form: two videos or one side-by-side video, a map per frame into
-    OUTPUT_DIR and/or a preview video."""
-    from csw.scale.stream import match_video as run
-
-    given = [name for name in NOT_FOR_VIDEO
-             if ctx.get_parameter_source(name).name != "DEFAULT"]
-    if given:
-        flag = "--" + given[0].replace("_", "-").rstrip("s")
-        raise click.UsageError(f"{flag} is not for video input; give --output-dir for "
-                               "a map per frame, or --preview-video")
-    if left is None:
-        raise click.UsageError("give a video (two, or one with --sbs)")
-    if sbs and right is not None:
-        raise click.UsageError("--sbs takes one side-by-side video; drop RIGHT")
-    if not sbs and right is None:
-        raise click.UsageError("give the right camera's video too, or --sbs for one "
-                               "side-by-side video")
-    if output_dir is None and preview_video is None:
-        raise click.UsageError("give --output-dir DIR for a map per frame, "
-                               "--preview-video FILE, or both")
-    config = stream_config(settings, preview_video, preview_sbs, range_each_frame)
-    try:
-        with opt.library_errors():
-            report = run(left, right, sbs=sbs, out_dir=output_dir, suffix=suffix,
-                         overwrite=overwrite, preview_video=preview_video,
-                         preview_sbs=preview_sbs, summary=summary,
-                         keep_range=not range_each_frame, latest=latest, config=config,
-                         frame_outputs=frame_outputs(ctx.params))
-    except OSError as exc:
-        raise write_error(exc) from None
-    report_stream(report, output_dir, summary, preview_video, range_each_frame)
-    if latest:
-        click.echo(f"csw: {report['dropped']} frame(s) dropped to keep up (--latest)",
-                   err=True)
-    counts = report["counts"]
-    if counts["failed"] or report["stopped"]:
-        raise SystemExit(1)
-
-
-def stream_config(settings, preview_video, preview_sbs, range_each_frame):
-    """The resolved options of a video's or a log's run, checked with its preview and
-    range options."""
-    from csw.config import params
-
-    if preview_sbs and preview_video is None:
-        raise click.UsageError("--preview-sbs needs --preview-video")
-    with opt.library_errors():
-        config = params.resolve(**settings)
-    if range_each_frame and config.range_known:
-        raise click.UsageError("--range-each-frame is for a range 'auto'; this run's is "
-                               f"{config.dmin}..{config.dmax}")
-    return config
-
-
-def report_stream(report, output_dir, summary, preview_video, range_each_frame):
-    """The lines on stderr after a video's or a log's run."""
-    counts = report["counts"]
-    latency = report["latency_ms"] or {"median": 0.0, "p99": 0.0}
-    where = f"; summary in {summary or Path(output_dir) / 'summary.json'}" \
-        if output_dir or summary else ""
-    size = "x".join(str(n) for n in report["size"]) if report["size"] else "-"
-    low, high = report["range"] or ("-", "-")
-    found = ", found on each frame" if range_each_frame else ""
-    click.echo(f"{report['frames']} frames ({size}, d {low}..{high}{found}): {counts['ok']} "
-               f"matched, {counts['skipped']} skipped, {counts['failed']} failed; "
-               f"{report['frames_per_second']:.1f} frames/s, latency median "
-               f"{latency['median']:.1f} ms, p99 {latency['p99']:.1f} ms{where}", err=True)
-    if preview_video and report["frames"]:
-        click.echo(f"wrote {preview_video}", err=True)
-    for note in report["stream_notes"]:
-        click.echo(f"csw: {note}", err=True)
-    for entry in report["failed"][:20]:
-        click.echo(f"failed: frame {entry['frame']}: {entry['error']}", err=True)
-    for name, note in report["noted"][:3]:
-        click.echo(f"csw: frame {name}: {note}", err=True)
-    if report["stopped"]:
-        click.echo(f"csw: stopped early: {report['stopped']}", err=True)
-
-
-LOG_ONLY = ("left_topic", "right_topic", "stamp_tolerance", "bag_out", "bag_depth")
-# The options a log's run takes beyond the video's (its rig, and the log's own).
-LOG_TAKES = ("rigs", "alpha", *LOG_ONLY)
-
-
-def log_mode(ctx, log_path, right, output_dir, suffix, overwrite, summary, rigs, alpha,
-             preview_video, preview_sbs, range_each_frame, settings):
-    """The log form: a bag or a KITTI drive, a map per frame into OUTPUT_DIR, a bag of
-    messages (--bag-out), a preview video, or any of them."""
-    from csw.robot.logs import read_log
-    from csw.scale.stream import match_log as run
-
-    given = [name for name in NOT_FOR_VIDEO if name not in LOG_TAKES
-             and ctx.get_parameter_source(name).name != "DEFAULT"]
-    if given:
-        raise click.UsageError(f"--{given[0].replace('_', '-').rstrip('s')} is not for a "
-                               "log; give --output-dir for a map per frame, --bag-out, or "
-                               "both")
-    if right is not None:
-        raise click.UsageError("a log holds both cameras; drop RIGHT")
-    p = ctx.params
-    if output_dir is None and preview_video is None and p["bag_out"] is None:
-        raise click.UsageError("give --output-dir DIR for a map per frame, --bag-out OUT "
-                               "for messages, --preview-video FILE, or more than one")
-    if p["bag_depth"] and p["bag_out"] is None:
-        raise click.UsageError("--bag-depth needs --bag-out")
-    config = stream_config(settings, preview_video, preview_sbs, range_each_frame)
-    rig = None
-    if rigs:
-        from csw.camera.rig import read_rig
-
-        with opt.library_errors("--rig"):
-            rig = read_rig(*rigs)
-    try:
-        with opt.library_errors():
-            log = read_log(log_path, p["left_topic"], p["right_topic"], rig=rig,
-                           tolerance=p["stamp_tolerance"], alpha=alpha,
-                           colour=p["bag_out"] is not None or preview_sbs)
-            try:
-                report = run(log, out_dir=output_dir, suffix=suffix, overwrite=overwrite,
-                             bag_out=p["bag_out"], depth=p["bag_depth"],
-                             preview_video=preview_video, preview_sbs=preview_sbs,
-                             summary=summary, keep_range=not range_each_frame,
-                             config=config, frame_outputs=frame_outputs(ctx.params))
-            finally:
-                log.close()
-    except OSError as exc:
-        raise write_error(exc) from None
-    info = report["log"]
-    unpaired = info["unpaired"]
-    rectified = f"; rectified with the rig of {info['rig']}" if info["rectified_by_csw"] \
-        else ""
-    click.echo(f"{info['left_topic']} and {info['right_topic']}: {info['pairs']} pairs "
-               f"({unpaired['left']} left and {unpaired['right']} right frames unpaired"
-               f"{rectified})", err=True)
-    report_stream(report, output_dir, summary, preview_video, range_each_frame)
-    if p["bag_out"] and report["frames"]:
-        click.echo(f"wrote {p['bag_out']}", err=True)
-    if report["counts"]["failed"] or report["stopped"]:
-        raise SystemExit(1)
