@@ -245,6 +245,7 @@ def test_a_full_disk_stops_the_run_cleanly_with_its_summary_and_preview(tmp_path
 
 
 def test_an_unwritable_output_folder_is_refused_before_decoding(tmp_path, monkeypatch):
+    from csw.io.video import VideoReader
     from csw.scale import stream
 
     (tmp_path / "maps").mkdir()
@@ -253,7 +254,7 @@ def test_an_unwritable_output_folder_is_refused_before_decoding(tmp_path, monkey
                         mode == os.W_OK and os.path.realpath(path) == str(tmp_path / "maps")
                         else real(path, mode, **kw))  # as a read-only disk, even for root
     decoded = []
-    monkeypatch.setattr(stream.VideoReader, "__iter__", lambda self: decoded.append(1))
+    monkeypatch.setattr(VideoReader, "__iter__", lambda self: decoded.append(1))
     result = invoke("match", sbs_mjpeg(tmp_path / "v.avi", 3), "--sbs", "-O",
                     tmp_path / "maps")
     assert one_line_error(result), result.output

@@ -1,4 +1,4 @@
-"""csw.scale.stream.LiveFrames: a live source read in a thread of its own, every frame
+"""csw.scale.frames.LiveFrames: a live source read in a thread of its own, every frame
 kept in order, or (latest) only the newest, the others counted as dropped."""
 
 import time
@@ -6,7 +6,7 @@ import time
 import pytest
 
 from csw.io.video import VideoError
-from csw.scale.stream import Frame, LiveFrames
+from csw.scale.frames import Frame, LiveFrames
 
 INFO = {"rate": 30.0, "frames": 0, "notes": [], "size": (8, 4)}
 

@@ -11,7 +11,8 @@ import csw
 from csw.data.synth import render, write_sequence
 from csw.io.pictures import DisparityColours, bar, disparity_colours
 from csw.io.video import VideoError, VideoReader, write_video
-from csw.scale.stream import match_video, video_frames
+from csw.scale.frames import video_frames
+from csw.scale.stream import match_video
 
 av = pytest.importorskip("av")  # in the test extras: skipped only outside them
 
@@ -109,7 +110,7 @@ def test_a_frame_size_that_changes_stops_the_stream_with_one_line(tmp_path, monk
         def close(self):
             pass
 
-    monkeypatch.setattr("csw.scale.stream.VideoReader", Changing)
+    monkeypatch.setattr("csw.scale.frames.VideoReader", Changing)
     frames, _ = video_frames("cam.avi", sbs=True)
     with pytest.raises(VideoError, match=r"frame 3: the size changed from 96x64 to 92x64"):
         list(frames)
