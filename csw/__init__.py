@@ -33,7 +33,7 @@ _PUBLIC = {
     "Calibration": ("camera.calibration", "Calibration"),
     "DataError": ("data.datasets", "DataError"),
     "ImageError": ("io.images", "ImageError"),
-    "Job": ("scale.batch", "Job"),
+    "Job": ("scale.jobs", "Job"),
     "Matcher": ("matching.matcher", "Matcher"),
     "OptionError": ("config.params", "OptionError"),
     "Pair": ("data.datasets", "Pair"),
@@ -45,8 +45,8 @@ _PUBLIC = {
     "compile_kernels": ("matching.setup", "compile_kernels"),
     "dataset_names": ("data.datasets", "names"),
     "depth": ("camera.geometry", "depth"),
-    "jobs_from_folders": ("scale.batch", "jobs_from_folders"),
-    "jobs_from_manifest": ("scale.batch", "jobs_from_manifest"),
+    "jobs_from_folders": ("scale.jobs", "jobs_from_folders"),
+    "jobs_from_manifest": ("scale.jobs", "jobs_from_manifest"),
     "load_dataset": ("data.datasets", "load"),
     "match": ("matching.matcher", "match"),
     "match_files": ("scale.files", "match_files"),
@@ -92,8 +92,9 @@ if TYPE_CHECKING:  # what the table above imports on first use, for readers and 
     from .matching.matcher import Matcher, Result, match
     from .matching.setup import compile_kernels
     from .robot.logs import read_log
-    from .scale.batch import Job, jobs_from_folders, jobs_from_manifest, match_many
+    from .scale.batch import match_many
     from .scale.files import match_files
+    from .scale.jobs import Job, jobs_from_folders, jobs_from_manifest
     from .scale.stream import match_log
     from .scale.tiled.run import TiledResult, match_tiled
 

@@ -2,22 +2,15 @@
 out.  A pair that fails is reported in the summary and the others go on.
 """
 
-import csv
-import itertools
-import json
 import os
-import tempfile
 import time
-from array import array
-from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 from ..camera import calibration as calib_module
 from ..camera.geometry import check_max_depth
 from ..config.params import OptionError
 from ..io import safety
-from ..io.atomic import atomic_write, remove_temporaries
+from ..io.atomic import remove_temporaries
 from ..io.formats import suffixes
 from ..io.images import ImageError
 from ..io.outputs import check_range_of, role_suffixes
@@ -26,124 +19,12 @@ from ..matching import disparity_range
 from ..matching.matcher import Matcher, resolved
 from .executor import run_tasks
 from .files import match_files
-
-# A name's outputs add a suffix (".depth.tiff") to it, and a file name holds 255 bytes.
-MAX_NAME_BYTES = 200
+from .jobs import check_names
+from .summary import PairLog, signals_held, write_summary
 
 # Each pair's 3-D outputs are NAME + this + their format: NAME.depth.pfm, NAME.ply ...
 PER_PAIR_INFIX = {"preview": ".preview", "confidence": ".confidence", "depth": ".depth",
                   "cloud": "", "depth_preview": ".depth"}
-
-
-@dataclass(frozen=True)
-class Job:
-    """One pair to match; ``problem`` is set when the pair can't even be formed.
-    ``where``: where the pair came from, for messages (a manifest's line, a file)."""
-
-    name: str
-    left: Path
-    right: Path | None
-    problem: str | None = None
-    where: str = ""
-
-
-def check_name(name, where):
-    """A name must be a plain file name: ValueError, saying where it came from, for one
-    that is empty, absolute, holds a path separator or '..', or a control character (a
-    NUL among them).  Manifests are shared files, and a name must never be a path."""
-    problem = None
-    if not name:
-        problem = "is empty"
-    elif any(ord(c) < 32 or ord(c) == 127 for c in name):
-        problem = "holds a control character"
-    elif "/" in name or "\\" in name or os.sep in name or (os.altsep and os.altsep in name):
-        problem = "holds a path separator"
-    elif ".." in name:
-        problem = "holds '..'"
-    elif len(name) >= 2 and name[1] == ":" and name[0].isalpha():
-        problem = "starts with a drive letter"
-    elif len(name.encode(errors="replace")) > MAX_NAME_BYTES:
-        problem = f"is longer than {MAX_NAME_BYTES} bytes"
-    if problem:
-        shown = repr(name) if len(name) <= 60 else repr(name[:60]) + "..."  # one line
-        raise ValueError(f"{where}: the name {shown} {problem}; a pair's name must be a "
-                         "plain file name (letters, digits, '-', '_', '.')")
-
-
-def jobs_from_folders(left_dir, right_dir):
-    """Pairs by file name: every image in ``left_dir`` with the same name in ``right_dir``.
-    A left image with no partner becomes a failed job, reported like any other."""
-    left_dir, right_dir = Path(left_dir), Path(right_dir)
-    jobs = []
-    images = suffixes("decoded")
-    for left in sorted(p for p in left_dir.iterdir() if p.suffix.lower() in images):
-        right = right_dir / left.name
-        problem = None if right.is_file() else f"no {left.name} in {right_dir}"
-        check_name(left.stem, str(left))
-        jobs.append(Job(left.stem, left, right if problem is None else None, problem,
-                        str(left)))
-    if not jobs:
-        raise ValueError(f"{left_dir} holds no images ({', '.join(images)})")
-    return jobs
-
-
-HEADER = (["left", "right"], ["left", "right", "name"])
-
-
-def jobs_from_manifest(path):
-    """Pairs from a CSV manifest: ``left,right[,name]`` per record, paths relative to the
-    manifest's folder.  CSV quoting, a UTF-8 byte-order mark, blank lines, lines starting
-    with '#' and a header line ``left,right,name`` are allowed.  The name (default: the
-    left file's stem) names the outputs and must be a plain file name.  ValueError,
-    naming the line, on a malformed record or a bad name."""
-    path = Path(path)
-    safety.protect(path)
-    safety.check_input(path, "a manifest file")
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as handle:
-            reader = csv.reader(handle)
-            records, start = [], 1
-            for fields in reader:  # each record with the line it starts on
-                records.append((start, fields))
-                start = reader.line_num + 1
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
-        raise ValueError(f"{path}: can't read the manifest ({reason})") from None
-    jobs = []
-    for number, fields in records:
-        fields = [f.strip() for f in fields]
-        where = f"{path}, line {number}"
-        if not any(fields) or fields[0].startswith("#"):
-            continue
-        if not jobs and [f.lower() for f in fields] in HEADER:
-            continue
-        if len(fields) not in (2, 3) or not (fields[0] and fields[1]):
-            raise ValueError(f"{where}: expected left,right or left,right,name, got "
-                             f"{','.join(fields)!r}")
-        left, right = (path.parent / f for f in fields[:2])
-        name = fields[2] if len(fields) == 3 else left.stem
-        check_name(name, where)
-        jobs.append(Job(name, left, right, where=where))
-    if not jobs:
-        raise ValueError(f"{path}: the manifest lists no pairs")
-    return jobs
-
-
-def check_names(jobs):
-    """Two pairs must not write the same outputs, nor ones whose names differ only in
-    case (they collide on macOS and Windows): ValueError naming the first clash."""
-    seen = {}
-    for job in jobs:
-        key = job.name.casefold()
-        if key in seen:
-            first = seen[key]
-            raise ValueError(f"pairs {first.where or first.left} and {job.where or job.left} "
-                             f"would both write {job.name!r}"
-                             + ("" if first.name == job.name else
-                                f" (as {first.name!r}: names that differ only in case "
-                                "collide on macOS and Windows)")
-                             + "; give them distinct names in a manifest")
-        seen[key] = job
 
 
 def _inside(path, folder):
@@ -403,146 +284,3 @@ def _side_by_side(config, job):
     return stream_plan(disparity_range.assumed_range(config, width), (height, width))
 
 
-def first_size(jobs):
-    """(width, height) of the first pair whose left image's header can be read, or None:
-    the size a batch's rig is for.  A pair that can't be read (a pipe, a damaged file)
-    is passed over here and fails alone when its turn comes."""
-    from ..io.images import image_header
-
-    for job in jobs:
-        if job.problem is None:
-            try:
-                height, width = image_header(job.left)[2]
-                return width, height
-            except ValueError:
-                continue
-    return None
-
-
-NOTED_KEPT = 20  # notes on pairs (a range cut short...) a batch's report repeats
-
-
-class PairLog:
-    """A batch's summary entries as they come, kept on disk (a temporary file beside the
-    summary) with only their offsets, counts and failures in memory: a million-pair
-    batch's summary takes a few bytes a pair in this process, not its entries."""
-
-    def __init__(self, folder, total):
-        self.handle = tempfile.TemporaryFile(dir=folder if folder.is_dir() else None)
-        # Each entry's offset, -1 until it comes; grown as entries come past ``total``
-        # (a video's frames, whose count is not known ahead).
-        self.offsets = array("q", [-1]) * total
-        self.counts = {"ok": 0, "skipped": 0, "failed": 0}
-        self.failed = []
-        self.noted = []  # (name, note) of the first NOTED_KEPT notes; all are in the summary
-        self.notes = 0
-
-    @property
-    def done(self):
-        return sum(self.counts.values())
-
-    def add(self, index, entry):
-        if index >= len(self.offsets):
-            self.offsets.extend([-1] * (index + 1 - len(self.offsets)))
-        self.offsets[index] = self.handle.seek(0, os.SEEK_END)
-        self.handle.write(json.dumps(entry, sort_keys=True, default=str).encode() + b"\n")
-        self.counts[entry["status"]] += 1
-        if entry["status"] == "failed":
-            self.failed.append(entry)
-        for note in entry.get("notes", ()):
-            self.notes += 1
-            if len(self.noted) < NOTED_KEPT:
-                self.noted.append((entry["name"], note))
-
-    def lines(self):
-        """Each entry's JSON line, in the jobs' order."""
-        for offset in self.offsets:
-            if offset >= 0:
-                self.handle.seek(offset)
-                yield self.handle.readline().rstrip(b"\n")
-
-    def close(self):
-        self.handle.close()
-
-
-class SummaryPairs(Sequence):
-    """The entries of a summary file, in the jobs' order, read from the file when asked
-    for (a batch's report holds no list of them)."""
-
-    def __init__(self, path, count):
-        self.path, self.count = Path(path), count
-
-    def __len__(self):
-        return self.count
-
-    def __iter__(self):
-        with open(self.path, "rb") as handle:
-            inside = False
-            for line in handle:
-                if inside and line.startswith(b"{"):
-                    yield json.loads(line.rstrip(b",\n"))
-                inside = inside or line.rstrip().endswith(b'"pairs": [')
-
-    def __getitem__(self, index):
-        if isinstance(index, slice):
-            return list(self)[index]
-        index = range(self.count)[index]
-        return next(itertools.islice(iter(self), index, None))
-
-
-def write_summary(path, log, options, interrupted=False, extra=None):
-    """Write the JSON summary atomically, one pair a line in the jobs' order, and return
-    the report: counts, options, interrupted, failed (the failed pairs' entries), noted
-    ((name, note) of the first NOTED_KEPT notes on pairs) and notes (how many), and
-    pairs (every entry, read from the summary when asked for); ``extra``: more fields
-    for the summary's head (a video's frames a second ...)."""
-    head = {"counts": log.counts, "interrupted": interrupted, "options": options,
-            **(extra or {})}
-
-    def write(tmp):
-        with open(tmp, "wb") as out:
-            text = json.dumps(head, indent=2, sort_keys=True, default=str)
-            out.write(text[:-2].encode() + b',\n  "pairs": [\n')
-            for i, line in enumerate(log.lines()):
-                out.write((b",\n" if i else b"") + line)
-            out.write(b"\n  ]\n}\n")
-    atomic_write(path, write)
-    return dict(head, failed=list(log.failed), noted=list(log.noted), notes=log.notes,
-                pairs=SummaryPairs(path, log.done))
-
-
-class signals_held:
-    """Within the ``with``, Ctrl-C, SIGTERM and SIGHUP wait: one that comes is acted on
-    (by the handler that was in place) when the block ends, so that a frame's outputs
-    and its summary entry are written together or not at all.  Outside the main thread,
-    where no handler can be set, it does nothing."""
-
-    NAMES = ("SIGINT", "SIGTERM", "SIGHUP")
-
-    def __enter__(self):
-        import signal
-        import threading
-
-        self.saved, self.caught = {}, []
-        if threading.current_thread() is not threading.main_thread():
-            return self
-        for name in self.NAMES:
-            number = getattr(signal, name, None)
-            if number is not None:
-                self.saved[number] = signal.signal(
-                    number, lambda signum, frame: self.caught.append((signum, frame)))
-        return self
-
-    def __exit__(self, *exc):
-        import signal
-
-        for number, handler in self.saved.items():
-            signal.signal(number, handler)
-        if self.caught and exc[0] is None:
-            signum, frame = self.caught[0]
-            handler = self.saved.get(signum)
-            if callable(handler):
-                handler(signum, frame)  # raises KeyboardInterrupt, or csw's Stopped
-            elif handler == signal.SIG_DFL:
-                signal.raise_signal(signum)
-        return False

@@ -31,8 +31,9 @@ from ..io.video import WRITTEN_SUFFIXES, VideoError, VideoWriter, is_live
 from ..matching.disparity_range import check_bounds
 from ..matching.matcher import Matcher, resolved
 from ..robot.logs import LogError, format_stamp
-from .batch import PairLog, failure_message, signals_held, write_summary
+from .batch import failure_message
 from .frames import Frame, LiveFrames, video_frames
+from .summary import PairLog, signals_held, write_summary
 
 FRAME_NAME = "{index:06d}"  # a frame's outputs: 000000.pfm, 000001.pfm ...
 # Its other outputs (frame_outputs): NNNNNN + this + their format, as a batch's pairs'.
@@ -430,7 +431,7 @@ class _Now:
 
 class _FrameRun:
     """The bookkeeping of one video's run: outputs written as results come, the
-    summary's entries kept on disk (csw.scale.batch.PairLog), latencies in an array."""
+    summary's entries kept on disk (csw.scale.summary.PairLog), latencies in an array."""
 
     def __init__(self, out_dir, suffix, overwrite, summary, preview_video, preview_sbs,
                  rate, progress, total=None, each_range=False):

@@ -46,7 +46,7 @@ def batch_rig(rigs, left_dir, manifest):
     file doesn't give it, taken from) the first pair's left image that can be read."""
     from csw import jobs_from_folders, jobs_from_manifest
     from csw.camera.rig import read_rig
-    from csw.scale.batch import first_size
+    from csw.scale.jobs import first_size
 
     with opt.library_errors("--manifest" if manifest else "LEFT"):
         jobs = jobs_from_manifest(manifest) if manifest else jobs_from_folders(left_dir,

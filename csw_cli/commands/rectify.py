@@ -68,7 +68,7 @@ def rectify_batch(left, right, manifest, rigs, output_dir, alpha, threads):
     from csw import jobs_from_folders, jobs_from_manifest
     from csw.camera.rectify_files import rectify_many
     from csw.camera.rig import read_rig
-    from csw.scale.batch import first_size
+    from csw.scale.jobs import first_size
 
     if bool(manifest) == (left is not None):
         raise click.UsageError("give either LEFT_DIR RIGHT_DIR or --manifest, not both")

@@ -192,9 +192,10 @@ def test_a_too_long_name_is_a_failed_pair_and_the_others_finish(tmp_path):
 def test_a_batch_survives_any_error_of_one_pair(tmp_path, monkeypatch):
     """Not only csw's own errors: an overflow, a zlib error, anything a pair raises."""
     from csw.scale import batch
+    from csw.scale.jobs import Job
 
-    jobs = [batch.Job("a", tmp_path / "a.png", tmp_path / "a.png"),
-            batch.Job("b", tmp_path / "b.png", tmp_path / "b.png")]
+    jobs = [Job("a", tmp_path / "a.png", tmp_path / "a.png"),
+            Job("b", tmp_path / "b.png", tmp_path / "b.png")]
     left = csw.synthetic_pair(64, 48, dmax=8, seed=2)[0]
     for job in jobs:
         write_png(job.left, left)

@@ -12,7 +12,7 @@ import csw
 from csw.camera.calibration import read_calibration
 from csw.io import atomic
 from csw.matching import disparity_range as autorange
-from csw.scale import batch
+from csw.scale import jobs as batch_jobs
 
 
 def test_middlebury_doffs_from_cam1_and_cam0(tmp_path):
@@ -81,7 +81,7 @@ def test_the_auto_range_ignores_a_few_outliers(monkeypatch):
 
 def test_a_name_with_del_is_refused():
     with pytest.raises(ValueError, match="control character"):
-        batch.check_name("a\x7fb", "test")
+        batch_jobs.check_name("a\x7fb", "test")
 
 
 def test_an_output_linked_into_a_sibling_folder_is_refused(tmp_path):
@@ -89,7 +89,7 @@ def test_an_output_linked_into_a_sibling_folder_is_refused(tmp_path):
     (tmp_path / "out").mkdir()
     (tmp_path / "out-old").mkdir()
     (tmp_path / "out" / "p.pfm").symlink_to(tmp_path / "out-old" / "p.pfm")
-    job = batch.Job("p", tmp_path / "l.png", tmp_path / "r.png")
+    job = batch_jobs.Job("p", tmp_path / "l.png", tmp_path / "r.png")
     with pytest.raises(ValueError, match="outside the output folder"):
         csw.match_many([job], tmp_path / "out", dmax=6, progress=False)
     assert not (tmp_path / "out-old" / "p.pfm").exists()

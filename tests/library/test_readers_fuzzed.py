@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 import csw
 from csw.io.sources import open_source
-from csw.scale.batch import jobs_from_manifest
+from csw.scale.jobs import jobs_from_manifest
 
 READERS = {
     "read_image": csw.read_image,

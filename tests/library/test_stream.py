@@ -132,12 +132,12 @@ def test_no_more_frames_are_read_ahead_than_in_flight(in_flight):
 
 
 def test_a_signal_during_a_held_block_is_acted_on_after_it():
-    """csw.scale.batch.signals_held: a frame's outputs and its entry are written together;
+    """csw.scale.summary.signals_held: a frame's outputs and its entry are written together;
     the Ctrl-C that came meanwhile is acted on (by the handler in place) once they are."""
     import os
     import signal
 
-    from csw.scale.batch import signals_held
+    from csw.scale.summary import signals_held
 
     seen = []
     saved = signal.signal(signal.SIGINT, lambda signum, frame: seen.append(signum))
