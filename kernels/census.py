@@ -114,14 +114,14 @@ def _places_array(size, pattern):
     return np.array(census_places(size, pattern), np.int64)
 
 
-def compared(left, right, setup, census_window, threads=None, *, pattern):
-    """The arrays the engines compare, and the Setup they run with: the images, or for
-    the census cost their census codes compared with SHD."""
-    if setup.cost == CENSUS:
+def compared(left, right, params, census_window, threads=None, *, pattern):
+    """The arrays the engines compare, and the contract.MatchParams they run with: the
+    images, or for the census cost their census codes compared with SHD."""
+    if params.cost == CENSUS:
         left = census_transform(left, census_window, threads, pattern=pattern)
         right = census_transform(right, census_window, threads, pattern=pattern)
-        setup = setup._replace(cost=SHD)
-    return left, right, setup
+        params = params._replace(cost=SHD)
+    return left, right, params
 
 
 def entries(pixels, cost, census_window, pattern):

@@ -109,10 +109,11 @@ class MatchResult:
         return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
 
 
-class Setup(NamedTuple):
-    """The scalar parameters of a match, as one record, validated and normalised by
-    :func:`validate`; the entries receive them as their int64 scalars, and ``cost``,
-    ``csw``, ``extras`` and ``right_map`` choose the compiled variant."""
+class MatchParams(NamedTuple):
+    """The scalar parameters of a match, as one record (as OpenCV's StereoBMParams),
+    validated and normalised by :func:`validate`; the entries receive them as their int64
+    scalars, and ``cost``, ``csw``, ``extras`` and ``right_map`` choose the compiled
+    variant."""
 
     window: int
     dmin: int
@@ -214,7 +215,8 @@ def _as_image(name, image):
 def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
              csw_margin=None, slack=None, rows=None, census_window=None,
              census_pattern=None, extras=False, right_map=False, lr_check=None):
-    """Check the inputs once and return ``(left, right, Setup, rows)``; raise ValueError.
+    """Check the inputs once and return ``(left, right, MatchParams, rows)``; raise
+    ValueError.
 
     left, right: uint8 or uint16 (H, W), equal shapes and dtypes.  rows: int64 (n,).
     The kernels have no defaults of their own: csw_margin is needed for the unique rule,
@@ -270,9 +272,10 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
     elif isinstance(lr_check, bool) or int(lr_check) != lr_check or lr_check < 0:
         raise ValueError(f"lr_check must be a whole number of pixels >= 0 (or None), got "
                          f"{lr_check!r}")
-    setup = Setup(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule],
-                  int(csw_margin), slack, bool(extras), bool(right_map), int(lr_check))
-    return left, right, setup, rows
+    params = MatchParams(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule],
+                         int(csw_margin), slack, bool(extras), bool(right_map),
+                         int(lr_check))
+    return left, right, params, rows
 
 
 def check_window(window, height, width):
