@@ -31,7 +31,7 @@ from .workspace import empty
 
 
 def variant(pixels, size, pattern):
-    """The compiled variant (kernels/native.py) for images of type ``pixels``."""
+    """The compiled variant (kernels/catalogue.py) for images of type ``pixels``."""
     return (dtype_name(pixels), dtype_name(census_dtype(size, pattern)))
 
 
@@ -122,8 +122,3 @@ def compared(left, right, params, census_window, threads=None, *, pattern):
         right = census_transform(right, census_window, threads, pattern=pattern)
         params = params._replace(cost=SHD)
     return left, right, params
-
-
-def entries(pixels, cost, census_window, pattern):
-    """The (kernel, variant) entries a match with this cost loads for its codes."""
-    return [("census", variant(pixels, census_window, pattern))] if cost == "census" else []

@@ -11,10 +11,10 @@ from .contract import dtype_name
 LUMA_WORK = 3
 
 
-def entries(pixels, channels=3):
-    """The (kernel, variant) entries the luma of images of type ``pixels`` with
-    ``channels`` a pixel (3: RGB, 4: RGBA) loads."""
-    return [("colour", (dtype_name(pixels), int(channels)))]
+def variant(pixels, channels=3):
+    """The compiled variant (kernels/catalogue.py) of the luma of images of type
+    ``pixels`` with ``channels`` a pixel (3: RGB, 4: RGBA)."""
+    return (dtype_name(pixels), int(channels))
 
 
 def luma(rgb, threads=None):
@@ -27,7 +27,7 @@ def luma(rgb, threads=None):
                          f"{rgb.dtype} {rgb.shape}")
     height, width = rgb.shape[:2]
     out = np.empty((height, width), rgb.dtype)
-    run = native.entry(*entries(rgb.dtype, rgb.shape[2])[0])
+    run = native.entry("colour", variant(rgb.dtype, rgb.shape[2]))
     work = height * width * LUMA_WORK
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)

@@ -29,9 +29,7 @@ from . import native, runtime, store
 from .census import CensusPlan, census_transform, fits_one_stripe
 from .contract import (
     CENSUS,
-    SAD,
     SHD,
-    SSD,
     candidate_count,
     census_dtype,
     dtype_name,
@@ -39,11 +37,10 @@ from .contract import (
     pad_edge,
     validate,
 )
+from .costs import cost_coded
 from .pad import Padder
 from .window import extra_maps, result
 from .workspace import empty, output
-
-COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
 
 # How a pixel picks its least cost with 16-bit sums (kernels/jit/fast.py, select_row):
 # packed keys, sum << 16 | k, whose minimum is the least sum at its smallest k, in one
@@ -69,11 +66,10 @@ def keyed_range():
 
 @functools.cache
 def accumulator_dtype(image_dtype, cost, window):
-    """The narrowest integer type that holds every window cost exactly."""
-    top = np.iinfo(image_dtype).max
-    bits = np.iinfo(image_dtype).bits
-    per_pixel = {SAD: top, SSD: top * top}.get(cost, bits)
-    largest = per_pixel * window * window
+    """The narrowest integer type that holds every window cost exactly, for images (or
+    census codes) of ``image_dtype`` and a cost code (kernels/costs.py; ValueError for
+    one it does not hold)."""
+    largest = cost_coded(cost).per_pixel(image_dtype) * window * window
     # Strictly below the maximum: the maximum itself marks blocked candidates.
     for dtype in (np.uint16, np.int32, np.int64):
         if largest < np.iinfo(dtype).max:
@@ -82,10 +78,11 @@ def accumulator_dtype(image_dtype, cost, window):
 
 
 def variant(cost, pixels, window, csw, right_map, extras, dmin=0):
-    """The compiled variant (kernels/native.py) a match with these settings runs.  cost:
-    the contract's cost code after census codes became SHD (contract.SAD, SSD, SHD)."""
+    """The compiled variant (kernels/catalogue.py) a match with these settings runs.
+    cost: a cost code (kernels/costs.py); pixels: the compared type, the images' or
+    their census codes'."""
     acc = accumulator_dtype(pixels, cost, window)
-    return (COST_NAMES.get(cost, "shd"), dtype_name(pixels), dtype_name(acc), bool(csw),
+    return (cost_coded(cost).worker, dtype_name(pixels), dtype_name(acc), bool(csw),
             bool(right_map), bool(extras), dmin < 0)
 
 
@@ -324,8 +321,4 @@ class FastPlan:
         return result(disp, min_cost, int(self.evaluated.sum()), self.plain, s, maps,
                       None if lr_valid is None else lr_valid.view(np.bool_))
 
-
-def entries(cost, pixels, window, csw, right_map, extras, dmin=0):
-    """The (kernel, variant) entries a match_fast with these settings loads."""
-    return [("fast", variant(cost, pixels, window, csw, right_map, extras, dmin))]
 

@@ -206,11 +206,3 @@ def fill_background(disp, threads=None):
     _by_rows("fill", dict(disp=disp, out=out), disp.shape[0], threads=threads)
     return out
 
-
-def entries(speckle=False, median=False, fill=False, float_map=False):
-    """The (kernel, variant) entries the filters load: speckle removal, the median, the
-    background fill, the integer map's conversion (as_float), each where True (the
-    left-right check is the engines', see kernels.entries)."""
-    kinds = [kind for kind, used in (("speckle", speckle), ("median", median),
-                                     ("fill", fill), ("float", float_map)) if used]
-    return [("filters", (kind,)) for kind in kinds]

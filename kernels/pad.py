@@ -8,9 +8,10 @@ from . import native
 from .contract import dtype_name
 
 
-def entries(pixels):
-    """The (kernel, variant) entries the padding of images of type ``pixels`` loads."""
-    return [("pad", (dtype_name(pixels),))]
+def variant(pixels):
+    """The compiled variant (kernels/catalogue.py) of the padding of images of type
+    ``pixels``."""
+    return (dtype_name(pixels),)
 
 
 class Padder:
@@ -20,7 +21,7 @@ class Padder:
 
     def __init__(self, shape, pixels, h, out, reverse=False):
         self.shape, self.pixels, self.out = tuple(shape), np.dtype(pixels), out
-        run = native.entry(*entries(pixels)[0])
+        run = native.entry("pad", variant(pixels))
         self.call = run.bind(image=np.zeros(shape, pixels), out=out, h=h,
                              reverse=int(reverse))
 

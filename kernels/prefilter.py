@@ -13,9 +13,10 @@ from .contract import dtype_name
 XSOBEL_WORK = 5
 
 
-def entries(pixels):
-    """The (kernel, variant) entries the prefilter of images of type ``pixels`` loads."""
-    return [("prefilter", (dtype_name(pixels),))]
+def variant(pixels):
+    """The compiled variant (kernels/catalogue.py) of the prefilter of images of type
+    ``pixels``."""
+    return (dtype_name(pixels),)
 
 
 def xsobel(image, cap, out=None, threads=None):
@@ -32,7 +33,7 @@ def xsobel(image, cap, out=None, threads=None):
     height, width = image.shape
     if out is None:
         out = np.empty((height, width), np.uint8)
-    run = native.entry(*entries(image.dtype)[0])
+    run = native.entry("prefilter", variant(image.dtype))
     work = height * width * XSOBEL_WORK
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)

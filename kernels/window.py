@@ -15,8 +15,6 @@ import numpy as np
 from . import native, runtime
 from .census import compared
 from .contract import (
-    SAD,
-    SSD,
     MatchResult,
     candidate_count,
     dtype_name,
@@ -24,10 +22,9 @@ from .contract import (
     pad_edge,
     validate,
 )
+from .costs import cost_coded
 from .filters import lr_consistent
 from .workspace import empty, output
-
-COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
 
 
 def extra_maps(shape, s, workspace=None, right=None):
@@ -59,15 +56,11 @@ def padded_type(pixels):
     return np.dtype(np.uint16) if np.dtype(pixels).itemsize <= 2 else np.dtype(pixels)
 
 
-def variant(cost, pixels, csw, right_map, extras, dmin=0):
-    """The compiled variant (kernels/native.py) a match with these settings runs."""
-    return (COST_NAMES.get(cost, "shd"), dtype_name(padded_type(pixels)), bool(csw),
+def variant(cost, pixels, window, csw, right_map, extras, dmin=0):
+    """The compiled variant (kernels/catalogue.py) a match with these settings runs: as
+    kernels.fast.variant (one compiled variant serves every window)."""
+    return (cost_coded(cost).worker, dtype_name(padded_type(pixels)), bool(csw),
             bool(right_map), bool(extras), dmin < 0)
-
-
-def entries(cost, pixels, window, csw, right_map, extras, dmin=0):
-    """The (kernel, variant) entries a match_window with these settings loads."""
-    return [("window", variant(cost, pixels, csw, right_map, extras, dmin))]
 
 
 def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
@@ -106,7 +99,7 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     h = s.window // 2
     dtype = padded_type(left.dtype)
     left_p, right_p = pad_edge(left, h, dtype), pad_edge(right, h, dtype)
-    run = native.entry("window", variant(s.cost, left.dtype, s.csw, s.right_costs,
+    run = native.entry("window", variant(s.cost, left.dtype, s.window, s.csw, s.right_costs,
                                          s.extras, s.dmin))
     width = left.shape[1]
     ndisp = s.dmax - s.dmin + 1

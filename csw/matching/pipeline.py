@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import kernels
-from ..kernels import filters, pad, prefilter, sgm
+from ..kernels import catalogue, filters, pad, prefilter, sgm
 from ..kernels.contract import census_bits
 from . import narrow
 from .stages import active, needs_extras
@@ -45,22 +45,22 @@ def entries(args, stages, dtype, confidence=False):
     cost = args["cost"]
     if stages.aggregate == "sgm":
         compared = compared_dtype(stages, dtype)
-        matching = sgm.entries(cost, compared, args["window"], args["dmin"],
-                               stages.sgm_paths, *penalties(stages, cost, args["window"],
-                                                            compared),
-                               stages.census_window, stages.census_pattern)
+        matching = catalogue.sgm_entries(
+            cost, compared, args["window"], args["dmin"], stages.sgm_paths,
+            *penalties(stages, cost, args["window"], compared), stages.census_window,
+            stages.census_pattern)
     else:
-        matching = kernels.entries(args["engine"], cost, dtype, args["window"],
-                                   stages.census_window, args.get("csw", False), False,
-                                   confidence or needs_extras(stages, cost), args["dmin"],
-                                   lr_check=stages.lr_check is not None,
-                                   census_pattern=stages.census_pattern)
+        matching = catalogue.engine_entries(
+            args["engine"], cost, dtype, args["window"], stages.census_window,
+            args.get("csw", False), False, confidence or needs_extras(stages, cost),
+            args["dmin"], lr_check=stages.lr_check is not None,
+            census_pattern=stages.census_pattern)
+    prefiltered = stages.prefilter == "xsobel" or stages.texture_threshold is not None
     return matching + \
         [entry for stage in active(stages, cost) for entry in stage.entries] + \
-        filters.entries(float_map=True) + \
-        (prefilter.entries(dtype) if stages.prefilter == "xsobel" or
-         stages.texture_threshold is not None else []) + \
-        (pad.entries(dtype) if args["engine"] == "fast" else [])  # its plans' padding
+        catalogue.filter_entries("float") + \
+        ([("prefilter", prefilter.variant(dtype))] if prefiltered else []) + \
+        ([("pad", pad.variant(dtype))] if args["engine"] == "fast" else [])  # its plans' padding
 
 
 def compared_dtype(stages, dtype):

@@ -5,7 +5,7 @@ import numba
 import numpy as np
 from numba import carray, cfunc, types
 
-from ..signature import spec_of
+from ..catalogue import spec_of
 from .options import ENTRY
 
 # The Numba helpers a stored entry may call: the GIL's, which the loader provides, and
