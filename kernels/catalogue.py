@@ -30,6 +30,10 @@ LARGEST_WINDOW = 31
 IMAGE_TYPES = (np.dtype(np.uint8), np.dtype(np.uint16))
 LARGEST_CENSUS_WINDOW = 15
 FILTER_KINDS = ("lr", "winners", "speckle", "median", "fill", "float")  # jit/filters.py
+# The costs the engines' workers compute (psi in jit/fast.py and jit/sgm.py, window_cost
+# in jit/window.py): each cost of kernels/costs.py runs as one of them.  The workers
+# treat any other name as shd, so spec_of refuses it.
+WORKER_COSTS = ("sad", "ssd", "shd")
 
 
 @dataclass(frozen=True)
@@ -167,9 +171,14 @@ def kernel_named(name):
 
 
 def spec_of(kernel, variant):
-    """The Spec of a catalogued kernel's variant (imports its jit module, and so
-    Numba)."""
-    module = importlib.import_module(f"{__package__}.jit.{kernel_named(kernel).name}")
+    """The Spec of a catalogued kernel's variant (imports its jit module, and so Numba);
+    ValueError for a cost its workers do not compute."""
+    row = kernel_named(kernel)
+    if "cost" in row.fields and variant[row.fields.index("cost")] not in WORKER_COSTS:
+        raise ValueError(f"the {kernel} workers compute {', '.join(WORKER_COSTS)}, not "
+                         f"{variant[row.fields.index('cost')]!r} (kernels/catalogue.py, "
+                         "WORKER_COSTS)")
+    module = importlib.import_module(f"{__package__}.jit.{row.name}")
     return module.spec(*variant)
 
 
