@@ -5,14 +5,16 @@ estimate (kernels/compiler.py) all read it, and a kernel it does not name can be
 compiled nor loaded (``spec_of``).
 
 A kernel is its workers, kernels/jit/NAME.py (``spec(*variant)``), and its driver, a
-module of kernels/ whose ``variant(...)`` names the variant a call runs: the parameters
-fixed at compile time (kernels/native.py).  Its row says what a variant fixes, every
-variant a run can load, and how long one takes to compile.  The costs have their own
-table (kernels/costs.py).
+module of kernels/ that loads it as ``native.entry(*entry("NAME", settings...))``.  Its
+row says what a variant fixes (the parameters fixed at compile time: kernels/native.py),
+which variant a call's settings run, every variant a run can load, and how long one
+takes to compile.  The costs have their own table (kernels/costs.py).
 
-No Numba here: the drivers are imported where a row's variants are listed.
+Nothing here imports a driver, or Numba: the drivers and the cache (kernels/native.py,
+kernels/compiler.py) import this.
 """
 
+import functools
 import importlib
 import itertools
 from collections.abc import Callable
@@ -20,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .contract import CENSUS_PATTERNS, MAX_CENSUS_BITS, census_bits, census_dtype
-from .costs import COSTS_TABLE, cost_named
+from .contract import CENSUS_PATTERNS, MAX_CENSUS_BITS, census_bits, census_dtype, dtype_name
+from .costs import COSTS_TABLE, accumulator_dtype, cost_coded, cost_named
 
 # What csw compile lists: windows up to this side (a wider one, rare, compiles its own
 # on first use), images of these types, census windows up to this side (csw.config's
@@ -45,12 +47,15 @@ class Kernel:
     compile_seconds: Numba's time for one entry on the 2-core machine csw is measured
         on, shared with other work as a CI runner is (compiler.py sums them for the
         notice before a compile and to share the work between processes).
+    variant(*settings): the variant a call with these settings runs (its driver's
+        settings: see ``entry``).
     variants(largest_window): every variant a run can load, windows up to that side.
     """
 
     name: str
     fields: tuple
     compile_seconds: float
+    variant: Callable[..., tuple]
     variants: Callable[[int], list]
 
 
@@ -76,28 +81,79 @@ def _census_windows():
 FLAGS = list(itertools.product((False, True), repeat=3))  # csw, right map, extras
 
 
-def _fast_variants(largest_window):
-    from .fast import variant
+# The local engines (kernels/fast.py, kernels/window.py).
 
+def _fast_variant(cost, pixels, window, csw, right_map, extras, dmin=0):
+    """cost: a cost code (kernels/costs.py); pixels: the compared type, the images' or
+    their census codes'; right_map: the right image's best matches are tracked (for its
+    map or the left-right check)."""
+    acc = accumulator_dtype(pixels, cost, window)
+    return (cost_coded(cost).worker, dtype_name(pixels), dtype_name(acc), bool(csw),
+            bool(right_map), bool(extras), dmin < 0)
+
+
+def padded_type(pixels):
+    """The type the window engine pads to: uint16 for 8- and 16-bit images (one variant
+    for both), census codes keep their own."""
+    return np.dtype(np.uint16) if np.dtype(pixels).itemsize <= 2 else np.dtype(pixels)
+
+
+def _window_variant(cost, pixels, window, csw, right_map, extras, dmin=0):
+    """As the fast engine's: one compiled variant serves every window."""
+    return (cost_coded(cost).worker, dtype_name(padded_type(pixels)), bool(csw),
+            bool(right_map), bool(extras), dmin < 0)
+
+
+def _local_variants(variant, largest_window):
     return [variant(cost.code, compared, window, *flags, dmin)
             for cost in COSTS_TABLE for compared in _compared_types(cost)
             for window in range(1, largest_window + 1, 2)
             for flags in FLAGS for dmin in (0, -1)]
 
 
-def _window_variants(largest_window):
-    from .window import variant
+# Semi-global matching (kernels/sgm.py): its types follow from the largest window cost
+# cmax, the penalties and the paths.
 
-    return [variant(cost.code, compared, 1, *flags, dmin)  # one variant serves every window
-            for cost in COSTS_TABLE for compared in _compared_types(cost)
-            for flags in FLAGS for dmin in (0, -1)]
+PATHS = (4, 8)
+
+
+def sentinel(cmax, p2, banded=False):
+    """The path states' sentinel: above every path value (at most cmax + P2), and in a
+    banded match above every min_j L + P2 too, so that a d the pixel before did not
+    search counts as none (kernels/jit/sgm.py)."""
+    return cmax + p2 * (2 if banded else 1)
+
+
+@functools.cache
+def accumulator(cmax, p1, p2, paths, banded=False):
+    """The accumulator type (np.uint16 or np.uint32) in which every path value (at most
+    cmax + P2), its sentinel plus P1 and every sum over the paths fits below the type's
+    largest value, which marks none; ValueError if none does."""
+    for dtype in (np.uint16, np.uint32):
+        top = int(np.iinfo(dtype).max)
+        if sentinel(cmax, p2, banded) + p1 < top and paths * (cmax + p2) < top:
+            return np.dtype(dtype)
+    raise ValueError(f"semi-global sums of costs up to {cmax} with P2 {p2} over {paths} "
+                     "paths exceed 32 bits; use a smaller window, a Hamming cost or "
+                     "smaller penalties")
+
+
+def cost_type(cmax, acc):
+    """The cost slab's type: a byte where every cost fits one (half the memory traffic
+    of the paths' reads), else the accumulator's."""
+    return np.dtype(np.uint8) if cmax <= 255 else acc
+
+
+def _sgm_variant(cost, pixels, cmax, acc, dmin=0, banded=False):
+    """cost: a cost code; pixels: the compared type; cmax: its largest window cost;
+    acc: its accumulator type."""
+    return (cost_coded(cost).worker, dtype_name(pixels), dtype_name(cost_type(cmax, acc)),
+            dtype_name(acc), dmin < 0, bool(banded))
 
 
 def _sgm_variants(largest_window, largest_penalty=10**7):
     """Penalties from 0 up to ``largest_penalty``: P2 0, the largest window cost and
     largest_penalty reach every accumulator type a cost and window can have."""
-    from .sgm import PATHS, accumulator, variant
-
     found = []
     for cost in COSTS_TABLE:
         for (compared, bits), window in itertools.product(
@@ -109,55 +165,64 @@ def _sgm_variants(largest_window, largest_penalty=10**7):
                     acc = accumulator(cmax, 0, p2, paths, banded)
                 except ValueError:  # no run can have it
                     continue
-                found += [variant(cost.code, compared, cmax, acc, dmin, banded)
+                found += [_sgm_variant(cost.code, compared, cmax, acc, dmin, banded)
                           for dmin in (0, -1)]
     return found
 
 
-def _census_variants(largest_window):
-    from .census import variant
+# The kernels around matching.
 
-    return [variant(pixels, size, pattern) for pixels in IMAGE_TYPES
-            for size, pattern in _census_windows()]
-
-
-def _prefilter_variants(largest_window):
-    from .prefilter import variant
-
-    return [variant(pixels) for pixels in IMAGE_TYPES]
+def _census_variant(pixels, size, pattern):
+    """Images of type ``pixels``, a census window of ``size`` and a pattern."""
+    return (dtype_name(pixels), dtype_name(census_dtype(size, pattern)))
 
 
-def _pad_variants(largest_window):
-    from .pad import variant
-
-    return [variant(pixels) for pixels in IMAGE_TYPES]
-
-
-def _colour_variants(largest_window):
-    from .colour import variant
-
-    return [variant(pixels, channels) for pixels in IMAGE_TYPES for channels in (3, 4)]
+def _filter_variant(kind):
+    if kind not in FILTER_KINDS:
+        raise ValueError(f"filter kind must be one of {', '.join(FILTER_KINDS)}, "
+                         f"got {kind!r}")
+    return (kind,)
 
 
-def _remap_variants(largest_window):
-    from .remap import variant
+def _image_variant(pixels):
+    """Images of type ``pixels`` (the prefilter, the plans' padding)."""
+    return (dtype_name(pixels),)
 
-    return [variant(kind) for kind in (None, "fixed", *IMAGE_TYPES)]
+
+def _colour_variant(pixels, channels=3):
+    """Images of type ``pixels`` with ``channels`` a pixel (3: RGB, 4: RGBA)."""
+    return (dtype_name(pixels), int(channels))
+
+
+def _remap_variant(kind):
+    """"maps" (the undistort-rectify maps' builder), "fixed" (their conversion into
+    fixed point), or an image type (the remap of such images)."""
+    return (kind,) if kind in ("maps", "fixed") else ("remap", dtype_name(kind))
 
 
 KERNELS = {kernel.name: kernel for kernel in (
     Kernel("fast", ("cost", "pixels", "accumulator", "csw", "right_map", "extras",
-                    "negative"), 12.0, _fast_variants),
+                    "negative"), 12.0, _fast_variant,
+           lambda largest: _local_variants(_fast_variant, largest)),
     Kernel("window", ("cost", "pixels", "csw", "right_map", "extras", "negative"), 4.5,
-           _window_variants),
+           _window_variant,  # one variant serves every window: window 1 lists them all
+           lambda largest: _local_variants(_window_variant, 1)),
     Kernel("sgm", ("cost", "pixels", "costs", "accumulator", "negative", "banded"), 1.0,
-           _sgm_variants),
-    Kernel("census", ("pixels", "codes"), 3.0, _census_variants),
-    Kernel("filters", ("kind",), 2.4, lambda largest: [(kind,) for kind in FILTER_KINDS]),
-    Kernel("prefilter", ("pixels",), 1.0, _prefilter_variants),
-    Kernel("pad", ("pixels",), 1.0, _pad_variants),
-    Kernel("colour", ("pixels", "channels"), 1.0, _colour_variants),
-    Kernel("remap", ("kind", "pixels"), 1.0, _remap_variants),  # kind "remap", "maps", "fixed"
+           _sgm_variant, _sgm_variants),
+    Kernel("census", ("pixels", "codes"), 3.0, _census_variant,
+           lambda largest: [_census_variant(pixels, size, pattern) for pixels in IMAGE_TYPES
+                            for size, pattern in _census_windows()]),
+    Kernel("filters", ("kind",), 2.4, _filter_variant,
+           lambda largest: [(kind,) for kind in FILTER_KINDS]),
+    Kernel("prefilter", ("pixels",), 1.0, _image_variant,
+           lambda largest: [_image_variant(pixels) for pixels in IMAGE_TYPES]),
+    Kernel("pad", ("pixels",), 1.0, _image_variant,
+           lambda largest: [_image_variant(pixels) for pixels in IMAGE_TYPES]),
+    Kernel("colour", ("pixels", "channels"), 1.0, _colour_variant,
+           lambda largest: [_colour_variant(pixels, channels) for pixels in IMAGE_TYPES
+                            for channels in (3, 4)]),
+    Kernel("remap", ("kind", "pixels"), 1.0, _remap_variant,  # kind "remap", "maps", "fixed"
+           lambda largest: [_remap_variant(kind) for kind in ("maps", "fixed", *IMAGE_TYPES)]),
 )}
 
 
@@ -201,6 +266,13 @@ def compile_seconds(kernel):
     return kernel_named(kernel).compile_seconds
 
 
+def entry(kernel, *settings):
+    """(kernel, variant): the entry a call of ``kernel`` with these settings runs, its
+    variant from the kernel's row (``native.entry(*entry(...))`` loads it)."""
+    row = kernel_named(kernel)
+    return row.name, row.variant(*settings)
+
+
 # The entries a match loads, from its settings (csw.matching.pipeline gives them from a
 # Config's).
 
@@ -209,50 +281,30 @@ def engine_entries(engine, cost, pixels, window, census_window, csw, right_map, 
     """The entries a local match (kernels.match) with these settings loads: its census
     transform, if any, its engine's variant, and the window engine's left-right check
     (the fast engine makes it in its rows).  lr_check: whether there is one."""
-    from . import fast
-    from . import window as window_engine
-
     cost = cost_named(cost)
     compared = census_dtype(census_window, census_pattern) if cost.census else pixels
-    module = {"fast": fast, "window": window_engine}[engine]
-    check = filter_entries("lr") if lr_check and engine != "fast" else []
+    check = [entry("filters", "lr")] if lr_check and engine != "fast" else []
     return census_entries(cost.name, pixels, census_window, census_pattern) + check + \
-        [(engine, module.variant(cost.code, compared, window, csw, right_map or lr_check,
-                                 extras, dmin))]
+        [entry(engine, cost.code, compared, window, csw, right_map or lr_check, extras, dmin)]
 
 
 def sgm_entries(cost, pixels, window, dmin, paths, p1, p2, census_window=None,
                 census_pattern=None, banded=False):
     """The entries a semi-global match (kernels.sgm.match_sgm) loads: its census
     transform, if any, and its worker (``banded``: a narrowed search's)."""
-    from . import sgm
-    from .contract import census_bits
-
     cost = cost_named(cost)
     compared, bits = pixels, None
     if cost.census:
         compared = census_dtype(census_window, census_pattern)
         bits = census_bits(census_window, census_pattern)
     cmax = cost.per_pixel(compared, bits) * window * window
-    acc = sgm.accumulator(cmax, p1, p2, paths, banded)
+    acc = accumulator(cmax, p1, p2, paths, banded)
     return census_entries(cost.name, pixels, census_window, census_pattern) + \
-        [("sgm", sgm.variant(cost.code, compared, cmax, acc, dmin, banded))]
+        [entry("sgm", cost.code, compared, cmax, acc, dmin, banded)]
 
 
 def census_entries(cost, pixels, census_window, pattern):
     """The census transform's entry a match with this cost loads for its codes (none
     for a cost that compares the pixels)."""
-    from .census import variant
-
-    return [("census", variant(pixels, census_window, pattern))] \
+    return [entry("census", pixels, census_window, pattern)] \
         if cost_named(cost).census else []
-
-
-def filter_entries(*kinds):
-    """The filters' entries of these kinds (FILTER_KINDS)."""
-    for kind in kinds:
-        if kind not in FILTER_KINDS:
-            raise ValueError(f"filter kind must be one of {', '.join(FILTER_KINDS)}, "
-                             f"got {kind!r}")
-    return [("filters", (kind,)) for kind in kinds]
-

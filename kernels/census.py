@@ -18,21 +18,16 @@ import functools
 import numpy as np
 
 from . import native, runtime
+from .catalogue import entry
 from .contract import (
     CENSUS,
     SHD,
     census_dtype,
     census_places,
-    dtype_name,
     pad_edge,
 )
 from .pad import Padder
 from .workspace import empty
-
-
-def variant(pixels, size, pattern):
-    """The compiled variant (kernels/catalogue.py) for images of type ``pixels``."""
-    return (dtype_name(pixels), dtype_name(census_dtype(size, pattern)))
 
 
 def census_transform(image, size, threads=None, pad=0, reverse=False, out=None, *,
@@ -54,7 +49,7 @@ def census_transform(image, size, threads=None, pad=0, reverse=False, out=None, 
                                 image.dtype))
     shape = (height + 2 * pad, width + 2 * pad)
     codes = np.empty(shape, census_dtype(size, pattern)) if out is None else out
-    run = native.entry("census", variant(image.dtype, size, pattern))
+    run = native.entry(*entry("census", image.dtype, size, pattern))
     places = _places_array(size, pattern)
     n_threads = runtime.thread_count(threads)
     work = height * width * len(places)
@@ -97,7 +92,7 @@ class CensusPlan:
         self.padded = np.empty((height + 2 * h, width + 2 * h), pixels)
         self.padder = Padder(shape, pixels, h, self.padded)
         self.codes = np.empty((height + 2 * pad, width + 2 * pad), census_dtype(size, pattern))
-        run = native.entry("census", variant(pixels, size, pattern))
+        run = native.entry(*entry("census", pixels, size, pattern))
         self.call = run.bind(**_arguments(self.padded, self.codes, size, pattern, 0, height,
                                           pad, reverse))
 

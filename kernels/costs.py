@@ -1,5 +1,6 @@
 """The costs, in one table: what each compares, what its compiled workers compute, and
-the largest cost one pixel adds, from which the engines' accumulator types and the
+the largest cost one pixel adds, from which the engines' accumulator types
+(``accumulator_dtype``; semi-global matching's in kernels/catalogue.py) and the
 semi-global penalties follow.  Every driver and the catalogue (kernels/catalogue.py)
 read it; a cost it does not hold raises, never falls back to another.
 
@@ -13,6 +14,7 @@ read it; a cost it does not hold raises, never falls back to another.
 No Numba here, and nothing of the kernels': contract.py re-exports the codes.
 """
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -73,6 +75,19 @@ def cost_named(name):
         if cost.name == name:
             return cost
     raise ValueError(f"cost must be one of {', '.join(COSTS)}, got {name!r}")
+
+
+@functools.cache
+def accumulator_dtype(compared, cost, window):
+    """The narrowest integer type that holds every window cost of the local engines
+    exactly (kernels/fast.py), for images (or census codes) of type ``compared`` and a
+    cost code; ValueError for a code the table does not hold."""
+    largest = cost_coded(cost).per_pixel(compared) * window * window
+    # Strictly below the maximum: the maximum itself marks blocked candidates.
+    for dtype in (np.uint16, np.int32, np.int64):
+        if largest < np.iinfo(dtype).max:
+            return np.dtype(dtype)
+    raise ValueError("window too large for exact 64-bit costs")
 
 
 def cost_coded(code):

@@ -24,19 +24,18 @@ Layers:
   jit/sgm.py    the workers
 """
 
-import functools
 import math
 
 import numpy as np
 
 from . import native, runtime
+from .catalogue import PATHS, accumulator, cost_type, entry, sentinel
 from .census import census_transform
 from .contract import (
     CENSUS,
     SHD,
     candidate_count,
     census_bits,
-    dtype_name,
     pad_edge,
     validate,
 )
@@ -45,7 +44,6 @@ from .fast import keyed_range
 from .window import extra_maps, result
 from .workspace import output
 
-PATHS = (4, 8)
 COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3  # the worker's steps (jit/sgm.py)
 
 # A pair whose slabs (costs and sums) fit in this many bytes is one band, with no first
@@ -62,41 +60,6 @@ def default_penalties(cost, window, census_bits_=None, pixels=np.uint8):
     bits = census_bits_ if census_bits_ is not None else np.iinfo(pixels).bits
     scale = 1 if np.dtype(pixels) == np.uint8 else 257
     return cost_named(cost).penalties(window * window, scale, int(bits))
-
-
-def sentinel(cmax, p2, banded=False):
-    """The path states' sentinel: above every path value (at most cmax + P2), and in a
-    banded match above every min_j L + P2 too, so that a d the pixel before did not
-    search counts as none (kernels/jit/sgm.py)."""
-    return cmax + p2 * (2 if banded else 1)
-
-
-@functools.cache
-def accumulator(cmax, p1, p2, paths, banded=False):
-    """The accumulator type (np.uint16 or np.uint32) in which every path value (at most
-    cmax + P2), its sentinel plus P1 and every sum over the paths fits below the type's
-    largest value, which marks none; ValueError if none does."""
-    for dtype in (np.uint16, np.uint32):
-        top = int(np.iinfo(dtype).max)
-        if sentinel(cmax, p2, banded) + p1 < top and paths * (cmax + p2) < top:
-            return np.dtype(dtype)
-    raise ValueError(f"semi-global sums of costs up to {cmax} with P2 {p2} over {paths} "
-                     "paths exceed 32 bits; use a smaller window, a Hamming cost or "
-                     "smaller penalties")
-
-
-def cost_type(cmax, acc):
-    """The cost slab's type: a byte where every cost fits one (half the memory traffic
-    of the paths' reads), else the accumulator's."""
-    return np.dtype(np.uint8) if cmax <= 255 else acc
-
-
-def variant(cost, pixels, cmax, acc, dmin=0, banded=False):
-    """The compiled variant (kernels/catalogue.py) of a match of this cost code
-    (kernels/costs.py) on ``pixels`` (the compared type), its largest window cost
-    ``cmax`` and its accumulator type; kernels.catalogue.sgm_entries from the settings."""
-    return (cost_coded(cost).worker, dtype_name(pixels), dtype_name(cost_type(cmax, acc)),
-            dtype_name(acc), dmin < 0, bool(banded))
 
 
 def memory(height, width, ndisp, window, paths, threads, band_bytes=None, slots=None):
@@ -216,7 +179,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         right_rev = np.ascontiguousarray(np.pad(right_rev, ((0, 0), (shift, 0)), mode="edge"))
     cmax = cost_coded(s.cost).per_pixel(left_p.dtype, bits) * s.window * s.window
     acc = accumulator(cmax, p1, p2, paths, banded)
-    run = native.entry("sgm", variant(s.cost, left_p.dtype, cmax, acc, s.dmin, banded))
+    run = native.entry(*entry("sgm", s.cost, left_p.dtype, cmax, acc, s.dmin, banded))
     n_threads = runtime.thread_count(threads)
 
     disp = output(into, "disparity", (height, width), np.int32)

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import kernels
-from ..kernels import catalogue, filters, pad, prefilter, sgm
+from ..kernels import catalogue, filters, sgm
 from ..kernels.contract import census_bits
 from . import narrow
 from .stages import active, needs_extras
@@ -58,9 +58,9 @@ def entries(args, stages, dtype, confidence=False):
     prefiltered = stages.prefilter == "xsobel" or stages.texture_threshold is not None
     return matching + \
         [entry for stage in active(stages, cost) for entry in stage.entries] + \
-        catalogue.filter_entries("float") + \
-        ([("prefilter", prefilter.variant(dtype))] if prefiltered else []) + \
-        ([("pad", pad.variant(dtype))] if args["engine"] == "fast" else [])  # its plans' padding
+        [catalogue.entry("filters", "float")] + \
+        ([catalogue.entry("prefilter", dtype)] if prefiltered else []) + \
+        ([catalogue.entry("pad", dtype)] if args["engine"] == "fast" else [])  # plans' padding
 
 
 def compared_dtype(stages, dtype):

@@ -54,9 +54,9 @@ def test_no_set_of_options_needs_a_kernel_compile_leaves_out():
             continue
         assert set(wanted) <= everything, given
         checked += 1
-    from csw.kernels import remap
+    from csw.kernels.catalogue import entry
 
-    assert {("remap", remap.variant(kind)) for kind in (None, "fixed", np.uint8, np.uint16)} \
+    assert {entry("remap", kind) for kind in ("maps", "fixed", np.uint8, np.uint16)} \
         <= everything
 
 
