@@ -35,6 +35,7 @@ import numpy as np
 from .. import kernels
 from ..kernels import catalogue, filters, sgm
 from ..kernels.contract import census_bits
+from ..kernels.costs import cost_named
 from . import narrow
 from .stages import active, needs_extras
 
@@ -73,7 +74,7 @@ def penalties(stages, cost, window, dtype):
     compared_dtype): as given, else scaled to the cost and window
     (kernels.sgm.default_penalties); a P2 left to default is at least the P1 given."""
     bits = census_bits(stages.census_window, stages.census_pattern) \
-        if cost == "census" else None
+        if cost_named(cost).census else None
     p1, p2 = sgm.default_penalties(cost, window, bits, dtype)
     p1 = p1 if stages.sgm_p1 is None else stages.sgm_p1
     p2 = max(p2, p1) if stages.sgm_p2 is None else stages.sgm_p2
