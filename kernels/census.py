@@ -18,21 +18,16 @@ import functools
 import numpy as np
 
 from . import native, runtime
+from .catalogue import entry
 from .contract import (
     CENSUS,
     SHD,
     census_dtype,
     census_places,
-    dtype_name,
     pad_edge,
 )
 from .pad import Padder
 from .workspace import empty
-
-
-def variant(pixels, size, pattern):
-    """The compiled variant (kernels/native.py) for images of type ``pixels``."""
-    return (dtype_name(pixels), dtype_name(census_dtype(size, pattern)))
 
 
 def census_transform(image, size, threads=None, pad=0, reverse=False, out=None, *,
@@ -54,7 +49,7 @@ def census_transform(image, size, threads=None, pad=0, reverse=False, out=None, 
                                 image.dtype))
     shape = (height + 2 * pad, width + 2 * pad)
     codes = np.empty(shape, census_dtype(size, pattern)) if out is None else out
-    run = native.entry("census", variant(image.dtype, size, pattern))
+    run = native.entry(*entry("census", image.dtype, size, pattern))
     places = _places_array(size, pattern)
     n_threads = runtime.thread_count(threads)
     work = height * width * len(places)
@@ -97,7 +92,7 @@ class CensusPlan:
         self.padded = np.empty((height + 2 * h, width + 2 * h), pixels)
         self.padder = Padder(shape, pixels, h, self.padded)
         self.codes = np.empty((height + 2 * pad, width + 2 * pad), census_dtype(size, pattern))
-        run = native.entry("census", variant(pixels, size, pattern))
+        run = native.entry(*entry("census", pixels, size, pattern))
         self.call = run.bind(**_arguments(self.padded, self.codes, size, pattern, 0, height,
                                           pad, reverse))
 
@@ -114,16 +109,11 @@ def _places_array(size, pattern):
     return np.array(census_places(size, pattern), np.int64)
 
 
-def compared(left, right, setup, census_window, threads=None, *, pattern):
-    """The arrays the engines compare, and the Setup they run with: the images, or for
-    the census cost their census codes compared with SHD."""
-    if setup.cost == CENSUS:
+def compared(left, right, params, census_window, threads=None, *, pattern):
+    """The arrays the engines compare, and the contract.MatchParams they run with: the
+    images, or for the census cost their census codes compared with SHD."""
+    if params.cost == CENSUS:
         left = census_transform(left, census_window, threads, pattern=pattern)
         right = census_transform(right, census_window, threads, pattern=pattern)
-        setup = setup._replace(cost=SHD)
-    return left, right, setup
-
-
-def entries(pixels, cost, census_window, pattern):
-    """The (kernel, variant) entries a match with this cost loads for its codes."""
-    return [("census", variant(pixels, census_window, pattern))] if cost == "census" else []
+        params = params._replace(cost=SHD)
+    return left, right, params

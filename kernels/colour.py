@@ -4,17 +4,11 @@ rounded as Pillow's convert("L") rounds it.  The worker is kernels/jit/colour.py
 import numpy as np
 
 from . import native, runtime
-from .contract import dtype_name
+from .catalogue import entry
 
 # About 0.6 ns a pixel in one thread, in runtime.DIRECT_WORK's units: images from about
 # 17 MP up run in stripes (below that, starting threads costs more than it saves).
 LUMA_WORK = 3
-
-
-def entries(pixels, channels=3):
-    """The (kernel, variant) entries the luma of images of type ``pixels`` with
-    ``channels`` a pixel (3: RGB, 4: RGBA) loads."""
-    return [("colour", (dtype_name(pixels), int(channels)))]
 
 
 def luma(rgb, threads=None):
@@ -27,7 +21,7 @@ def luma(rgb, threads=None):
                          f"{rgb.dtype} {rgb.shape}")
     height, width = rgb.shape[:2]
     out = np.empty((height, width), rgb.dtype)
-    run = native.entry(*entries(rgb.dtype, rgb.shape[2])[0])
+    run = native.entry(*entry("colour", rgb.dtype, rgb.shape[2]))
     work = height * width * LUMA_WORK
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)

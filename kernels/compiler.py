@@ -10,14 +10,15 @@ import sys
 import time
 from pathlib import Path
 
+from .catalogue import compile_seconds
 from .store import entry_key, is_stored, store
 
-# Seconds Numba takes to compile each kernel's entry on the 2-core AMD EPYC csw is
-# measured on, shared with other work as a CI runner is: 15 entries of `csw compile
-# --preset accurate` took 99 s there (2026-12-03), a default first run 20-55 s, where
-# an idle core's times (fast 4, window 1.5, census 1, filters 0.8) had the notice say
-# "about 7 s".  The notice before a compile sums them for what is missing.
-COMPILE_SECONDS = {"fast": 12.0, "window": 4.5, "census": 3.0, "filters": 2.4}
+# Each kernel's compile takes the seconds its catalogue row gives (kernels/catalogue.py),
+# measured on the 2-core AMD EPYC csw is measured on, shared with other work as a CI
+# runner is: 15 entries of `csw compile --preset accurate` took 99 s there (2026-12-03),
+# a default first run 20-55 s, where an idle core's times (fast 4, window 1.5, census 1,
+# filters 0.8) had the notice say "about 7 s".  The notice before a compile sums them
+# for what is missing.
 START_SECONDS = 3.0  # importing Numba and its first compile's set-up
 
 _NOTICE = {"shown": False}
@@ -36,7 +37,7 @@ def compile_missing(folder, missing, progress=None, notice=True):
     from .runtime import cores
 
     shares = _shares(missing, min(len(missing), cores()))
-    estimate = START_SECONDS + max(sum(COMPILE_SECONDS.get(k, 1.0) for k, _ in share)
+    estimate = START_SECONDS + max(sum(compile_seconds(k) for k, _ in share)
                                    for share in shares)
     if notice and estimate >= 1.0 and not _NOTICE["shown"]:
         _NOTICE["shown"] = True
@@ -68,10 +69,10 @@ def _shares(missing, workers):
     first, each to the process with the least estimated time so far."""
     shares = [[] for _ in range(max(workers, 1))]
     loads = [0.0] * len(shares)
-    for kernel, variant in sorted(missing, key=lambda e: -COMPILE_SECONDS.get(e[0], 1.0)):
+    for kernel, variant in sorted(missing, key=lambda e: -compile_seconds(e[0])):
         i = loads.index(min(loads))
         shares[i].append((kernel, variant))
-        loads[i] += COMPILE_SECONDS.get(kernel, 1.0)
+        loads[i] += compile_seconds(kernel)
     return shares
 
 

@@ -11,14 +11,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+# The costs' codes and names, re-exported for the engines and callers (kernels/costs.py).
+from .costs import CENSUS, COSTS, SAD, SHD, SSD, cost_named  # noqa: F401
+
 # The engines (kernels/__init__.py maps each name to its entry).
 ENGINE_NAMES = ("fast", "window")
 
-SAD, SSD, SHD, CENSUS = 0, 1, 2, 3
-COSTS = {"sad": SAD, "ssd": SSD, "shd": SHD, "census": CENSUS}
-# Census: each pixel becomes a code with one bit per neighbour of its census window
-# (set where the neighbour is darker than the centre); the cost is the Hamming distance of
-# the codes summed over the matching window: SHD over the census codes.
+# The census codes' widest (see census_dtype).
 MAX_CENSUS_BITS = 64
 # Which neighbours of the census window make bits (see census_places):
 #   dense   every one
@@ -109,15 +108,16 @@ class MatchResult:
         return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
 
 
-class Setup(NamedTuple):
-    """The scalar parameters of a match, as one record, validated and normalised by
-    :func:`validate`; the entries receive them as their int64 scalars, and ``cost``,
-    ``csw``, ``extras`` and ``right_map`` choose the compiled variant."""
+class MatchParams(NamedTuple):
+    """The scalar parameters of a match, as one record (as OpenCV's StereoBMParams),
+    validated and normalised by :func:`validate`; the entries receive them as their int64
+    scalars, and ``cost``, ``csw``, ``extras`` and ``right_map`` choose the compiled
+    variant."""
 
     window: int
     dmin: int
     dmax: int
-    cost: int  # SAD, SSD or SHD: census arrives as SHD over census codes
+    cost: int  # a code of kernels/costs.py: census runs as SHD over census codes
     csw: bool
     tau: int
     rule: int
@@ -214,7 +214,8 @@ def _as_image(name, image):
 def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
              csw_margin=None, slack=None, rows=None, census_window=None,
              census_pattern=None, extras=False, right_map=False, lr_check=None):
-    """Check the inputs once and return ``(left, right, Setup, rows)``; raise ValueError.
+    """Check the inputs once and return ``(left, right, MatchParams, rows)``; raise
+    ValueError.
 
     left, right: uint8 or uint16 (H, W), equal shapes and dtypes.  rows: int64 (n,).
     The kernels have no defaults of their own: csw_margin is needed for the unique rule,
@@ -227,8 +228,7 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
     height, width = left.shape
     window = check_window(window, height, width)
     dmin, dmax = check_range(dmin, dmax, width)
-    if cost not in COSTS:
-        raise ValueError(f"cost must be one of {', '.join(COSTS)}, got {cost!r}")
+    code = cost_named(cost).code  # raises, naming the costs
     if rule not in RULES:
         raise ValueError(f"CSW rule must be one of {', '.join(RULES)}, got {rule!r}")
     # slack is the rule's unless given: studies of the rule (reports/csw-tradeoff.md)
@@ -270,9 +270,9 @@ def validate(left, right, *, window, dmin, dmax, cost, csw, tau, rule="literal",
     elif isinstance(lr_check, bool) or int(lr_check) != lr_check or lr_check < 0:
         raise ValueError(f"lr_check must be a whole number of pixels >= 0 (or None), got "
                          f"{lr_check!r}")
-    setup = Setup(window, dmin, dmax, COSTS[cost], bool(csw), tau, RULES[rule],
-                  int(csw_margin), slack, bool(extras), bool(right_map), int(lr_check))
-    return left, right, setup, rows
+    params = MatchParams(window, dmin, dmax, code, bool(csw), tau, RULES[rule],
+                         int(csw_margin), slack, bool(extras), bool(right_map), int(lr_check))
+    return left, right, params, rows
 
 
 def check_window(window, height, width):

@@ -10,8 +10,8 @@ image is stored with its columns reversed, so that R[y, j - d] for k = 0, 1, ...
 forward, contiguous read and the loops over k vectorise.
 
 Accumulator width is a decision: the narrowest unsigned/signed type that holds the
-largest possible window cost (see ``accumulator_dtype``). Unsigned 16-bit sums wrap on
-the way, but wrap-around arithmetic is exact modulo 2**16, and every true value fits.
+largest possible window cost (kernels/costs.py, ``accumulator_dtype``). Unsigned 16-bit
+sums wrap on the way, but wrap-around arithmetic is exact modulo 2**16, and every true value fits.
 
 Layers:
   match_fast      public: validate, pad, reverse, pick the accumulator and the variant,
@@ -26,24 +26,21 @@ import functools
 import numpy as np
 
 from . import native, runtime, store
+from .catalogue import entry
 from .census import CensusPlan, census_transform, fits_one_stripe
 from .contract import (
     CENSUS,
-    SAD,
     SHD,
-    SSD,
     candidate_count,
     census_dtype,
-    dtype_name,
     invalid,
     pad_edge,
     validate,
 )
+from .costs import accumulator_dtype
 from .pad import Padder
 from .window import extra_maps, result
 from .workspace import empty, output
-
-COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
 
 # How a pixel picks its least cost with 16-bit sums (kernels/jit/fast.py, select_row):
 # packed keys, sum << 16 | k, whose minimum is the least sum at its smallest k, in one
@@ -65,28 +62,6 @@ def keyed_range():
     are compiled for (0: none).  Both ways are compiled in every variant, so this is a
     scalar of the call."""
     return 0 if store.target_cpu() in SPLIT_256_CPUS else KEYED_RANGE
-
-
-@functools.cache
-def accumulator_dtype(image_dtype, cost, window):
-    """The narrowest integer type that holds every window cost exactly."""
-    top = np.iinfo(image_dtype).max
-    bits = np.iinfo(image_dtype).bits
-    per_pixel = {SAD: top, SSD: top * top}.get(cost, bits)
-    largest = per_pixel * window * window
-    # Strictly below the maximum: the maximum itself marks blocked candidates.
-    for dtype in (np.uint16, np.int32, np.int64):
-        if largest < np.iinfo(dtype).max:
-            return np.dtype(dtype)
-    raise ValueError("window too large for exact 64-bit costs")
-
-
-def variant(cost, pixels, window, csw, right_map, extras, dmin=0):
-    """The compiled variant (kernels/native.py) a match with these settings runs.  cost:
-    the contract's cost code after census codes became SHD (contract.SAD, SSD, SHD)."""
-    acc = accumulator_dtype(pixels, cost, window)
-    return (COST_NAMES.get(cost, "shd"), dtype_name(pixels), dtype_name(acc), bool(csw),
-            bool(right_map), bool(extras), dmin < 0)
 
 
 def stripe_bounds(height, window, threads, rows):
@@ -168,8 +143,8 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                              out=empty(workspace, "padded-right", shape, right.dtype))
     if shift:  # the right image padded `shift` columns more beyond its right edge
         right_rev = np.ascontiguousarray(np.pad(right_rev, ((0, 0), (shift, 0)), mode="edge"))
-    run = native.entry("fast", variant(s.cost, left_p.dtype, s.window, s.csw, s.right_costs,
-                                       s.extras, s.dmin))
+    run = native.entry(*entry("fast", s.cost, left_p.dtype, s.window, s.csw, s.right_costs,
+                              s.extras, s.dmin))
     disp = output(into, "disparity", (height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
     maps = extra_maps(disp.shape, s, workspace)
@@ -268,8 +243,8 @@ class FastPlan:
             self.left = Padder(shape, pixels, h, left_p)
             self.right = Padder(shape, pixels, h, right_rev, reverse=True)
         self.s = s
-        run = native.entry("fast", variant(s.cost, left_p.dtype, s.window, s.csw,
-                                           s.right_costs, s.extras, s.dmin))
+        run = native.entry(*entry("fast", s.cost, left_p.dtype, s.window, s.csw,
+                                  s.right_costs, s.extras, s.dmin))
         self.maps = extra_maps(shape, s)  # the 1-row dummies; full maps are fresh per pair
         self.checked = s.lr_check >= 0
         self.lr_dummy = np.empty((1, width), np.uint8)
@@ -323,9 +298,3 @@ class FastPlan:
         call()
         return result(disp, min_cost, int(self.evaluated.sum()), self.plain, s, maps,
                       None if lr_valid is None else lr_valid.view(np.bool_))
-
-
-def entries(cost, pixels, window, csw, right_map, extras, dmin=0):
-    """The (kernel, variant) entries a match_fast with these settings loads."""
-    return [("fast", variant(cost, pixels, window, csw, right_map, extras, dmin))]
-

@@ -11,6 +11,7 @@ validates and calls them.
 import numpy as np
 
 from . import native, runtime
+from .catalogue import entry
 from .workspace import empty
 
 # The speckle filter's work per pixel in runtime.DIRECT_WORK's units: about 6 ns a pixel
@@ -23,7 +24,7 @@ def _by_rows(kind, arguments, height, scratch=None, threads=None, per_pixel=8):
     csw.match), with its ``arguments`` by name but the stripe's rows (y0, y1) and the
     ``scratch`` arrays each stripe makes (name -> a function making one); per_pixel: its
     work per pixel in runtime.DIRECT_WORK's units."""
-    run = native.entry("filters", (kind,))
+    run = native.entry(*entry("filters", kind))
     work = arguments["disp"].size * per_pixel
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)
@@ -88,7 +89,7 @@ def as_float(disp, lr_valid, invalid, out=None, threads=None, workspace=None):
     if workspace is not None and work < runtime.DIRECT_WORK and workspace.plans(disp.size):
         call = workspace.kept_or_made(
             "float-call", (disp.shape, arguments["invalid"], checked),
-            lambda: native.entry("filters", ("float",)).bind(**arguments, y0=0,
+            lambda: native.entry(*entry("filters", "float")).bind(**arguments, y0=0,
                                                              y1=disp.shape[0]))
         for name in ("disp", "lr_valid", "out"):
             call.point(name, arguments[name])
@@ -130,7 +131,7 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None, clear=F
     first = np.empty(height, np.int64)
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)
-    run = native.entry("filters", ("speckle",))
+    run = native.entry(*entry("filters", "speckle"))
     none = np.empty(0, np.int64)
 
     def step(number, i, joins=none):  # see jit/filters.py, speckle
@@ -168,7 +169,7 @@ class SpecklePlan:
         shared = (self.small, np.empty(height * width, np.int32),
                   np.empty(height * width, np.int32), np.empty(height, np.int64))
         disp = np.zeros(shape, np.float32)
-        run = native.entry("filters", ("speckle",))
+        run = native.entry(*entry("filters", "speckle"))
         # The regions, then the marks: alone (step 2) or clearing them too (step 3).
         self.regions, *marks = [
             run.bind(**_speckle_arguments(disp, *shared, max_size, max_diff, step, 0, height,
@@ -205,12 +206,3 @@ def fill_background(disp, threads=None):
     out = np.empty_like(disp)
     _by_rows("fill", dict(disp=disp, out=out), disp.shape[0], threads=threads)
     return out
-
-
-def entries(speckle=False, median=False, fill=False, float_map=False):
-    """The (kernel, variant) entries the filters load: speckle removal, the median, the
-    background fill, the integer map's conversion (as_float), each where True (the
-    left-right check is the engines', see kernels.entries)."""
-    kinds = [kind for kind, used in (("speckle", speckle), ("median", median),
-                                     ("fill", fill), ("float", float_map)) if used]
-    return [("filters", (kind,)) for kind in kinds]

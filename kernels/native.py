@@ -29,9 +29,10 @@ import time
 
 import numpy as np
 
+from .catalogue import spec_of
 from .compiler import compile_missing
 from .loader import failed, load
-from .signature import Signature, spec_of
+from .signature import Signature
 from .store import cache_dir, entry_key, lock, verified
 
 JIT_DISABLED = os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")

@@ -5,12 +5,7 @@ array bound once.  At 320 x 240 that is a few microseconds an image, against abo
 import numpy as np
 
 from . import native
-from .contract import dtype_name
-
-
-def entries(pixels):
-    """The (kernel, variant) entries the padding of images of type ``pixels`` loads."""
-    return [("pad", (dtype_name(pixels),))]
+from .catalogue import entry
 
 
 class Padder:
@@ -20,7 +15,7 @@ class Padder:
 
     def __init__(self, shape, pixels, h, out, reverse=False):
         self.shape, self.pixels, self.out = tuple(shape), np.dtype(pixels), out
-        run = native.entry(*entries(pixels)[0])
+        run = native.entry(*entry("pad", pixels))
         self.call = run.bind(image=np.zeros(shape, pixels), out=out, h=h,
                              reverse=int(reverse))
 

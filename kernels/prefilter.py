@@ -5,17 +5,12 @@ narrow) took about a quarter of a SAD match's time, this takes a few percent."""
 import numpy as np
 
 from . import native, runtime
-from .contract import dtype_name
+from .catalogue import entry
 
 # About a nanosecond a pixel in one thread, in runtime.DIRECT_WORK's units: images up to
 # several megapixels run in the calling thread (below that, threads cost more than they
 # save).
 XSOBEL_WORK = 5
-
-
-def entries(pixels):
-    """The (kernel, variant) entries the prefilter of images of type ``pixels`` loads."""
-    return [("prefilter", (dtype_name(pixels),))]
 
 
 def xsobel(image, cap, out=None, threads=None):
@@ -32,7 +27,7 @@ def xsobel(image, cap, out=None, threads=None):
     height, width = image.shape
     if out is None:
         out = np.empty((height, width), np.uint8)
-    run = native.entry(*entries(image.dtype)[0])
+    run = native.entry(*entry("prefilter", image.dtype))
     work = height * width * XSOBEL_WORK
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)

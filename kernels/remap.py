@@ -7,19 +7,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import native, runtime
-from .contract import dtype_name
+from .catalogue import entry
 
 # About 4 ns a pixel in one thread (four gathers), in runtime.DIRECT_WORK's units.
 REMAP_WORK = 20
 FIXED_WORK = 10  # about 2 ns a pixel
-
-
-def entries(pixels=None):
-    """The (kernel, variant) entries a remap of images of type ``pixels`` loads; None:
-    the maps' builder, "fixed": their conversion into fixed point."""
-    if pixels is None or pixels == "fixed":
-        return [("remap", ("maps",) if pixels is None else ("fixed",))]
-    return [("remap", ("remap", dtype_name(pixels)))]
 
 
 @dataclass(frozen=True)
@@ -53,7 +45,7 @@ def fixed_maps(map_x, map_y, raw, threads=None):
     shape = map_x.shape
     out = FixedMaps(np.empty(shape, np.uint32), np.empty(shape, np.uint16),
                     np.empty(shape, np.uint8), (height, width))
-    run = native.entry(*entries("fixed")[0])
+    run = native.entry(*entry("remap", "fixed"))
     work = map_x.size * FIXED_WORK
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads),
                                                      shape[0])
@@ -85,7 +77,7 @@ def remap(image, map_x, map_y, threads=None, out=None):
     out = np.empty(shape, image.dtype) if out is None else out
     if out.shape != shape or out.dtype != image.dtype or not out.flags.c_contiguous:
         raise ValueError("out must be a C-contiguous (H, W) array of the image's type")
-    run = native.entry(*entries(image.dtype)[0])
+    run = native.entry(*entry("remap", image.dtype))
     height = shape[0]
     work = out.size * REMAP_WORK
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
@@ -117,7 +109,7 @@ def undistort_rectify_maps(inverse, camera, distortion, size, threads=None):
                   camera=np.ascontiguousarray(camera, np.float64),
                   distortion=np.ascontiguousarray(distortion, np.float64),
                   map_x=map_x, map_y=map_y)
-    run = native.entry(*entries()[0])
+    run = native.entry(*entry("remap", "maps"))
     work = width * height * MAPS_WORK
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)

@@ -28,32 +28,26 @@ Layers:
   jit/sgm.py    the workers
 """
 
-import functools
-import itertools
 import math
 
 import numpy as np
 
 from . import native, runtime
+from .catalogue import PATHS, accumulator, cost_type, entry, sentinel
 from .census import census_transform
 from .contract import (
     CENSUS,
-    SAD,
     SHD,
-    SSD,
     candidate_count,
     census_bits,
-    census_dtype,
-    dtype_name,
     pad_edge,
     validate,
 )
+from .costs import cost_coded, cost_named
 from .fast import keyed_range
 from .window import extra_maps, result
 from .workspace import output
 
-PATHS = (4, 5, 8)
-COST_NAMES = {SAD: "sad", SSD: "ssd", SHD: "shd"}
 COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3  # the worker's steps (jit/sgm.py)
 
 # A pair whose slabs (costs and sums) fit in this many bytes is one band, with no first
@@ -61,101 +55,15 @@ COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3  # the worker's steps (jit/sgm.py
 BAND_BYTES = 256 << 20
 
 
-def per_pixel_max(cost, pixels, bits=None):
-    """The largest cost one pixel can add: SAD's largest pixel value, its square for
-    SSD, the code's bits for Hamming costs (``bits``: a census code's, else the type's)."""
-    top = int(np.iinfo(pixels).max)
-    if cost == SAD:
-        return top
-    if cost == SSD:
-        return top * top
-    return int(bits if bits is not None else np.iinfo(pixels).bits)
-
-
 def default_penalties(cost, window, census_bits_=None, pixels=np.uint8):
-    """(P1, P2) scaled to the cost, as OpenCV scales them to its block: for census, a
-    quarter of the code's bits and all of them per window pixel; for SAD, OpenCV's 8
-    and 32 per window pixel (on 8-bit images; 16-bit ones scale by 257); for SSD, their
-    squares' scale."""
-    area = window * window
-    if cost in ("census", "shd"):
-        bits = census_bits_ if census_bits_ is not None else np.iinfo(pixels).bits
-        return max(1, bits * area // 4), bits * area
+    """(P1, P2) scaled to the cost (a name) and the window, as OpenCV scales them to its
+    block (kernels/costs.py has each cost's): for Hamming costs, a quarter of the code's
+    bits and all of them per window pixel (``census_bits_``: a census code's, else the
+    type's); for SAD, OpenCV's 8 and 32 per window pixel (on 8-bit images; 16-bit ones
+    scale by 257); for SSD, their squares' scale."""
+    bits = census_bits_ if census_bits_ is not None else np.iinfo(pixels).bits
     scale = 1 if np.dtype(pixels) == np.uint8 else 257
-    if cost == "ssd":
-        return 64 * area * scale * scale, 1024 * area * scale * scale
-    return 8 * area * scale, 32 * area * scale
-
-
-def sentinel(cmax, p2, banded=False):
-    """The path states' sentinel: above every path value (at most cmax + P2), and in a
-    banded match above every min_j L + P2 too, so that a d the pixel before did not
-    search counts as none (kernels/jit/sgm.py)."""
-    return cmax + p2 * (2 if banded else 1)
-
-
-@functools.cache
-def accumulator(cmax, p1, p2, paths, banded=False):
-    """The accumulator type (np.uint16 or np.uint32) in which every path value (at most
-    cmax + P2), its sentinel plus P1 and every sum over the paths fits below the type's
-    largest value, which marks none; ValueError if none does."""
-    for dtype in (np.uint16, np.uint32):
-        top = int(np.iinfo(dtype).max)
-        if sentinel(cmax, p2, banded) + p1 < top and paths * (cmax + p2) < top:
-            return np.dtype(dtype)
-    raise ValueError(f"semi-global sums of costs up to {cmax} with P2 {p2} over {paths} "
-                     "paths exceed 32 bits; use a smaller window, a Hamming cost or "
-                     "smaller penalties")
-
-
-def cost_type(cmax, acc):
-    """The cost slab's type: a byte where every cost fits one (half the memory traffic
-    of the paths' reads), else the accumulator's."""
-    return np.dtype(np.uint8) if cmax <= 255 else acc
-
-
-def variant(cost, pixels, cmax, acc, dmin=0, banded=False):
-    return (COST_NAMES.get(cost, "shd"), dtype_name(pixels), dtype_name(cost_type(cmax, acc)),
-            dtype_name(acc), dmin < 0, bool(banded))
-
-
-def entries(cost, pixels, window, dmin, paths, p1, p2, census_window=None,
-            census_pattern=None, banded=False):
-    """The (kernel, variant) entries a semi-global match loads: its census transform,
-    if any, and its worker (``banded``: a narrowed search's)."""
-    from . import census
-
-    compared, code, bits = pixels, cost, None
-    if cost == "census":
-        compared = census_dtype(census_window, census_pattern)
-        code, bits = "shd", census_bits(census_window, census_pattern)
-    code_id = {"sad": SAD, "ssd": SSD, "shd": SHD}[code]
-    cmax = per_pixel_max(code_id, compared, bits) * window * window
-    acc = accumulator(cmax, p1, p2, paths, banded)
-    return census.entries(pixels, cost, census_window, census_pattern) + \
-        [("sgm", variant(code_id, compared, cmax, acc, dmin, banded))]
-
-
-def variants(largest_window=31, largest_penalty=10**7):
-    """Every variant a semi-global match can load, for 8- and 16-bit images and census
-    codes of every width, windows up to ``largest_window`` and penalties from 0 up to
-    ``largest_penalty`` (what ``csw compile`` puts in the cache)."""
-    found = set()
-    kinds = [(SAD, np.uint8), (SAD, np.uint16), (SSD, np.uint8), (SSD, np.uint16)] + \
-        [(SHD, t) for t in (np.uint8, np.uint16, np.uint32, np.uint64)]
-    for cost, pixels in kinds:
-        for window in range(1, largest_window + 1, 2):
-            for bits in ((None,) if cost != SHD else range(8, 65)):
-                cmax = per_pixel_max(cost, pixels, bits) * window * window
-                for p2 in (0, cmax, largest_penalty):
-                    for paths, banded in itertools.product(PATHS, (False, True)):
-                        try:
-                            acc = accumulator(cmax, 0, p2, paths, banded)
-                        except ValueError:
-                            continue
-                        for dmin in (0, -1):
-                            found.add(variant(cost, pixels, cmax, acc, dmin, banded))
-    return sorted(found)
+    return cost_named(cost).penalties(window * window, scale, int(bits))
 
 
 def memory(height, width, ndisp, window, paths, threads, band_bytes=None, slots=None):
@@ -293,9 +201,9 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         right_rev = pad_edge(right[:, ::-1], h, right.dtype, out=np.empty(shape, right.dtype))
     if shift:
         right_rev = np.ascontiguousarray(np.pad(right_rev, ((0, 0), (shift, 0)), mode="edge"))
-    cmax = per_pixel_max(s.cost, left_p.dtype, bits) * s.window * s.window
+    cmax = cost_coded(s.cost).per_pixel(left_p.dtype, bits) * s.window * s.window
     acc = accumulator(cmax, p1, p2, paths, banded)
-    run = native.entry("sgm", variant(s.cost, left_p.dtype, cmax, acc, s.dmin, banded))
+    run = native.entry(*entry("sgm", s.cost, left_p.dtype, cmax, acc, s.dmin, banded))
     n_threads = runtime.thread_count(threads)
 
     disp = output(into, "disparity", (height, width), np.int32)

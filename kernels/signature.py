@@ -16,7 +16,6 @@ dtype and rank) and its int64 scalars by name.  From that record derive:
 No Numba here: the loader and the call sites import this module, the compiler too.
 """
 
-import importlib
 from collections import namedtuple
 from dataclasses import dataclass
 
@@ -78,8 +77,3 @@ class Spec:
     worker: object
     signature: Signature
 
-
-def spec_of(kernel, variant):
-    """The Spec of a kernel's variant (imports its jit module, and so Numba)."""
-    module = importlib.import_module(f"{__package__}.jit.{kernel}")
-    return module.spec(*variant)

@@ -16,10 +16,11 @@ from pathlib import Path
 
 from .signature import Signature
 
-# Every source the compiled code can depend on: the workers and what they import (the
-# Numba option sets, the contract's constants), so any change gives a new cache folder.
+# Every source the compiled code can depend on: the workers with their Numba option sets
+# (jit/) and what they import (the contract's constants, the signatures), so any change
+# gives a new cache folder.
 KERNEL_SOURCES = Path(__file__).parent
-COMPILED_SOURCES = ("jit/*.py", "config.py", "contract.py", "signature.py")
+COMPILED_SOURCES = ("jit/*.py", "contract.py", "signature.py")
 
 
 def cache_dir():

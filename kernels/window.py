@@ -13,21 +13,17 @@ Layers (as in stumpy's stump.py):
 import numpy as np
 
 from . import native, runtime
+from .catalogue import entry, padded_type
 from .census import compared
 from .contract import (
-    SAD,
-    SSD,
     MatchResult,
     candidate_count,
-    dtype_name,
     invalid,
     pad_edge,
     validate,
 )
 from .filters import lr_consistent
 from .workspace import empty, output
-
-COST_NAMES = {SAD: "sad", SSD: "ssd"}  # anything else (SHD, census codes) is "shd"
 
 
 def extra_maps(shape, s, workspace=None, right=None):
@@ -51,23 +47,6 @@ def result(disp, min_cost, evaluated, plain, s, maps, lr_valid=None):
     costs = maps[:3] if s.extras else (None,) * 3
     return MatchResult(disp, min_cost, evaluated, plain, *costs,
                        maps[3] if s.right_map else None, lr_valid)
-
-
-def padded_type(pixels):
-    """The type the window engine pads to: uint16 for 8- and 16-bit images (one variant
-    for both), census codes keep their own."""
-    return np.dtype(np.uint16) if np.dtype(pixels).itemsize <= 2 else np.dtype(pixels)
-
-
-def variant(cost, pixels, csw, right_map, extras, dmin=0):
-    """The compiled variant (kernels/native.py) a match with these settings runs."""
-    return (COST_NAMES.get(cost, "shd"), dtype_name(padded_type(pixels)), bool(csw),
-            bool(right_map), bool(extras), dmin < 0)
-
-
-def entries(cost, pixels, window, csw, right_map, extras, dmin=0):
-    """The (kernel, variant) entries a match_window with these settings loads."""
-    return [("window", variant(cost, pixels, csw, right_map, extras, dmin))]
 
 
 def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
@@ -106,8 +85,8 @@ def match_window(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
     h = s.window // 2
     dtype = padded_type(left.dtype)
     left_p, right_p = pad_edge(left, h, dtype), pad_edge(right, h, dtype)
-    run = native.entry("window", variant(s.cost, left.dtype, s.csw, s.right_costs,
-                                         s.extras, s.dmin))
+    run = native.entry(*entry("window", s.cost, left.dtype, s.window, s.csw, s.right_costs,
+                              s.extras, s.dmin))
     width = left.shape[1]
     ndisp = s.dmax - s.dmin + 1
     disp = output(into, "disparity", (rows.size, width), np.int32)

@@ -33,8 +33,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import kernels
-from ..kernels import filters, pad, prefilter, sgm
+from ..kernels import catalogue, filters, sgm
 from ..kernels.contract import census_bits
+from ..kernels.costs import cost_named
 from . import narrow
 from .stages import active, needs_extras
 
@@ -45,22 +46,22 @@ def entries(args, stages, dtype, confidence=False):
     cost = args["cost"]
     if stages.aggregate == "sgm":
         compared = compared_dtype(stages, dtype)
-        matching = sgm.entries(cost, compared, args["window"], args["dmin"],
-                               stages.sgm_paths, *penalties(stages, cost, args["window"],
-                                                            compared),
-                               stages.census_window, stages.census_pattern)
+        matching = catalogue.sgm_entries(
+            cost, compared, args["window"], args["dmin"], stages.sgm_paths,
+            *penalties(stages, cost, args["window"], compared), stages.census_window,
+            stages.census_pattern)
     else:
-        matching = kernels.entries(args["engine"], cost, dtype, args["window"],
-                                   stages.census_window, args.get("csw", False), False,
-                                   confidence or needs_extras(stages, cost), args["dmin"],
-                                   lr_check=stages.lr_check is not None,
-                                   census_pattern=stages.census_pattern)
+        matching = catalogue.engine_entries(
+            args["engine"], cost, dtype, args["window"], stages.census_window,
+            args.get("csw", False), False, confidence or needs_extras(stages, cost),
+            args["dmin"], lr_check=stages.lr_check is not None,
+            census_pattern=stages.census_pattern)
+    prefiltered = stages.prefilter == "xsobel" or stages.texture_threshold is not None
     return matching + \
         [entry for stage in active(stages, cost) for entry in stage.entries] + \
-        filters.entries(float_map=True) + \
-        (prefilter.entries(dtype) if stages.prefilter == "xsobel" or
-         stages.texture_threshold is not None else []) + \
-        (pad.entries(dtype) if args["engine"] == "fast" else [])  # its plans' padding
+        [catalogue.entry("filters", "float")] + \
+        ([catalogue.entry("prefilter", dtype)] if prefiltered else []) + \
+        ([catalogue.entry("pad", dtype)] if args["engine"] == "fast" else [])  # plans' padding
 
 
 def compared_dtype(stages, dtype):
@@ -73,7 +74,7 @@ def penalties(stages, cost, window, dtype):
     compared_dtype): as given, else scaled to the cost and window
     (kernels.sgm.default_penalties); a P2 left to default is at least the P1 given."""
     bits = census_bits(stages.census_window, stages.census_pattern) \
-        if cost == "census" else None
+        if cost_named(cost).census else None
     p1, p2 = sgm.default_penalties(cost, window, bits, dtype)
     p1 = p1 if stages.sgm_p1 is None else stages.sgm_p1
     p2 = max(p2, p1) if stages.sgm_p2 is None else stages.sgm_p2

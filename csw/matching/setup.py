@@ -151,90 +151,19 @@ def preset_entries(presets=None):
     for config in coarse_configs():
         for dtype in (np.uint8, np.uint16):
             wanted += config_entries(config, np.dtype(dtype))
-    return list(dict.fromkeys((k, tuple(v)) for k, v in wanted + colour_entries()))
-
-
-def colour_entries():
-    """The luma of RGB and RGBA pairs (csw.io.images.luma), 8- and 16-bit."""
-    from ..kernels import colour
-
-    return [entry for dtype in (np.uint8, np.uint16) for channels in (3, 4)
-            for entry in colour.entries(dtype, channels)]
-
-
-# The options whose values choose which compiled kernels a run loads, with a value of
-# each kind (pipeline.entries: the engine, the cost and the code or accumulator types it
-# leads to, CSW, the left-right check, the extra costs subpixel and the confidence need,
-# a range below 0).  Every other option is an argument of the same kernels, and the
-# filters' entries don't depend on the match's (tests/library/test_compile_all.py
-# checks both claims on random option sets).
-KERNEL_CHOICES = {"engine": ("fast", "window"), "csw": (False, True), "lr_check": (None, 1),
-                  "subpixel": ("none", "parabola"), "dmin": (0, -8)}
-CENSUS_CHOICES = {"census_window": tuple(range(3, 16, 2)),
-                  "census_pattern": ("dense", "sparse")}
-FILTER_CHOICES = ({"speckle_size": 100}, {"median": 3}, {"fill": "background"},
-                  {"winner_check": 1})
-LARGEST_WINDOW = 31  # a wider window (rare) compiles its own on first use
-
-
-def documented_entries():
-    """Every kernel entry a run can load, whatever the options' values (windows up to
-    LARGEST_WINDOW), for 8- and 16-bit images, with and without the confidence map, the
-    remap of raw pairs from a rig and the luma of colour pairs: what ``csw compile`` puts
-    in the cache, so that no run after it compiles."""
-    import itertools
-
-    wanted = []
-    for cost in params.COSTS:
-        census = CENSUS_CHOICES if cost == "census" else {"census_window": (3,),
-                                                          "census_pattern": ("sparse",)}
-        choices = {**KERNEL_CHOICES, **census, "window": windows_per_type(cost)}
-        for values in itertools.product(*choices.values()):
-            given = dict(zip(choices, values, strict=True))
-            config = params.resolve(preset="raw", cost=cost, dmax=8, **given)
-            for dtype, confidence in itertools.product((np.uint8, np.uint16), (False, True)):
-                try:
-                    wanted += config_entries(config, np.dtype(dtype), confidence)
-                except ValueError:  # a census too wide for 64 bits: no run has it
-                    break
-    for stage in FILTER_CHOICES:
-        wanted += config_entries(params.resolve(preset="raw", dmax=8, **stage),
-                                 np.dtype(np.uint8))
-    from ..kernels import prefilter, remap, sgm  # remap: a raw pair from a rig (csw.camera.rectify)
-
-    wanted += [("sgm", v) for v in sgm.variants(LARGEST_WINDOW)]
-
-    for dtype in (None, "fixed", np.uint8, np.uint16):
-        wanted += remap.entries(dtype)
-    for dtype in (np.uint8, np.uint16):  # the x-Sobel prefilter, of the texture check too
-        wanted += prefilter.entries(dtype)
-    return list(dict.fromkeys((k, tuple(v)) for k, v in wanted + colour_entries()))
-
-
-def windows_per_type(cost):
-    """One window side (odd, up to LARGEST_WINDOW) for each set of accumulator types the
-    fast engine picks for ``cost`` over 8- and 16-bit images and census codes."""
-    from ..kernels import COSTS, contract
-    from ..kernels.fast import accumulator_dtype
-
-    code = contract.SHD if cost == "census" else COSTS[cost]
-    compared = (np.uint8, np.uint16, np.uint32, np.uint64) if cost == "census" else \
-        (np.uint8, np.uint16)
-    found = {}
-    for window in range(1, LARGEST_WINDOW + 1, 2):
-        found.setdefault(tuple(accumulator_dtype(c, code, window) for c in compared), window)
-    return tuple(found.values())
+    return list(dict.fromkeys((k, tuple(v)) for k, v in
+                              wanted + kernels.catalogue.entries_of("colour")))
 
 
 def compile_kernels(presets=None, progress=None):
-    """Compile into the kernel cache every kernel entry a run can load
-    (:func:`documented_entries`), or only those the ``presets`` run with their defaults
-    (:func:`preset_entries`), so that later runs, here or on a machine that shares the
-    cache, load them at once.  progress(key, compiled) is called for each entry.
-    Returns (entries compiled, entries already there, seconds)."""
+    """Compile into the kernel cache every kernel entry a run can load (the catalogue's,
+    csw.kernels.catalogue.every_entry), or only those the ``presets`` run with their
+    defaults (:func:`preset_entries`), so that later runs, here or on a machine that
+    shares the cache, load them at once.  progress(key, compiled) is called for each
+    entry.  Returns (entries compiled, entries already there, seconds)."""
     from ..kernels import native
 
-    wanted = preset_entries(presets) if presets else documented_entries()
+    wanted = preset_entries(presets) if presets else kernels.catalogue.every_entry()
     before = native.STATS["compiled"]
     native.clear()  # so that entries loaded earlier in this process are counted too
     seconds = native.ensure(wanted, progress, notice=progress is None)

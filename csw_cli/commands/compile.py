@@ -22,10 +22,10 @@ def compile_(presets):
       NUMBA_CACHE_DIR=.cache/numba csw compile --preset accurate
     """
     from csw.io.progress import progress_bar
-    from csw.kernels import native
-    from csw.matching.setup import compile_kernels, documented_entries, preset_entries
+    from csw.kernels import catalogue, native
+    from csw.matching.setup import compile_kernels, preset_entries
 
-    total = len(preset_entries(presets) if presets else documented_entries())
+    total = len(preset_entries(presets) if presets else catalogue.every_entry())
     with progress_bar(total, "csw compile", "kernel") as bar:
         compiled, found, seconds = compile_kernels(presets or None,
                                                    progress=lambda key, new: bar.update())

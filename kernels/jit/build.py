@@ -5,8 +5,8 @@ import numba
 import numpy as np
 from numba import carray, cfunc, types
 
-from ..config import ENTRY
-from ..signature import spec_of
+from ..catalogue import spec_of
+from .options import ENTRY
 
 # The Numba helpers a stored entry may call: the GIL's, which the loader provides, and
 # those only its error path calls, which the loader records as a failure (the workers

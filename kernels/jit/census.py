@@ -5,9 +5,9 @@ neighbour is darker than the centre; the first neighbour in the most significant
 import numpy as np
 from numba import njit
 
-from ..config import SERIAL
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import dtype_of
+from .options import SERIAL
 
 # The scalars of a stripe (the entry's record; see kernels/signature.py).
 SC = scalar_index(("size", "y0", "y1", "pad", "reverse"))

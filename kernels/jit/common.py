@@ -6,8 +6,8 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic, overload
 
-from ..config import SERIAL
 from ..contract import dtype_name, dtype_of  # noqa: F401 (the workers' modules use them)
+from .options import SERIAL
 
 
 def ctpop(value):

@@ -23,10 +23,10 @@ Layers (the entry and the parallel driver over stripes are in kernels/fast.py):
 import numpy as np
 from numba import njit
 
-from ..config import SERIAL
 from ..contract import INVALID, NEG_INVALID, RULE_UNIQUE
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import blocked, ctpop, dtype_of, is_distinct, keep_or_take, lr_agrees, stop_requested
+from .options import SERIAL
 
 # The scalars every stripe takes (the entry's record; see kernels/signature.py).
 SCALARS = ("window", "dmin", "dmax", "tau", "rule", "csw_margin", "slack", "y0", "y1",

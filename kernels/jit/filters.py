@@ -12,9 +12,9 @@ small ones in parallel.
 import numpy as np
 from numba import njit
 
-from ..config import SERIAL
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import lr_agrees
+from .options import SERIAL
 
 F32, I32, I64, U8, F64 = (np.dtype(t) for t in (np.float32, np.int32, np.int64, np.uint8,
                                                  np.float64))

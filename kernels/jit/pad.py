@@ -4,9 +4,9 @@ pixels, its columns reversed on request."""
 
 from numba import njit
 
-from ..config import SERIAL
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import dtype_of
+from .options import SERIAL
 
 # The scalars (the entry's record; see kernels/signature.py).
 SC = scalar_index(("h", "reverse"))

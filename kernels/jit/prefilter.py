@@ -4,9 +4,9 @@ response, clipped to +-cap and offset by cap into bytes, with edge-replicated bo
 import numpy as np
 from numba import njit
 
-from ..config import SERIAL
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import dtype_of
+from .options import SERIAL
 
 # The scalars of a stripe of rows (the entry's record; see kernels/signature.py).
 SC = scalar_index(("y0", "y1", "cap"))

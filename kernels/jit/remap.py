@@ -5,9 +5,9 @@ fixed point (the maps made once into source offsets and integer weights)."""
 import numpy as np
 from numba import njit
 
-from ..config import SERIAL
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import dtype_of
+from .options import SERIAL
 
 # The scalars of a stripe of rows (the entries' records; see kernels/signature.py):
 # width is the raw image's.

@@ -39,9 +39,9 @@ min_j L + P2, so that a d without L is as one beyond the range (kernels/sgm.py).
 import numpy as np
 from numba import njit
 
-from ..config import SERIAL
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import ctpop, dtype_of, keep_or_take, lr_agrees, prefetch, stop_requested
+from .options import SERIAL
 
 COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3
 # Pixels ahead that the path from the right asks the caches for (it walks memory

@@ -9,10 +9,10 @@ Layers (the entry and the parallel driver over stripes of rows are in kernels/wi
 import numpy as np
 from numba import njit
 
-from ..config import SERIAL
 from ..contract import INVALID, NEG_INVALID, RULE_UNIQUE
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import blocked, ctpop, dtype_of, is_distinct, stop_requested
+from .options import SERIAL
 
 # The scalars every stripe takes (the entry's record; see kernels/signature.py).
 SCALARS = ("window", "dmin", "dmax", "tau", "rule", "csw_margin", "slack", "i0", "i1")

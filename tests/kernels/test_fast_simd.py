@@ -9,7 +9,7 @@ import re
 
 import pytest
 
-from csw.kernels import fast
+from csw.kernels.catalogue import entry
 
 
 @pytest.mark.slow
@@ -20,7 +20,7 @@ def test_column_update_uses_16_bit_vector_lanes():
     from csw.kernels.contract import SAD
     from csw.kernels.jit.build import assembly
 
-    asm = assembly("fast", fast.variant(SAD, np.dtype(np.uint8), 9, False, False, False))
+    asm = assembly(*entry("fast", SAD, np.dtype(np.uint8), 9, False, False, False))
     add16, sub16, max8, min8 = (len(re.findall(rf"\bv?{op}\b", asm))
                                 for op in ("paddw", "psubw", "pmaxub", "pminub"))
     # |l - r| as max - min on packed bytes, summed in packed 16-bit words.

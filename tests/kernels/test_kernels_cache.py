@@ -42,7 +42,7 @@ if sys.argv[1] == "broken":  # every compile worker fails at once
     kernels.compiler._WORKER = "import sys; sys.exit(3)"
 rng = np.random.default_rng(5)
 left, right = (rng.integers(0, 256, (12, 20), dtype=np.uint8) for _ in range(2))
-wanted = [e for cost in ("sad", "census") for e in kernels.entries(
+wanted = [e for cost in ("sad", "census") for e in kernels.catalogue.engine_entries(
     "window", cost, np.dtype(np.uint8), 3, 5, False, False, False, census_pattern="dense")]
 kernels.native.ensure(wanted)  # three entries, missing together
 maps = [kernels.match(left, right, engine="window", window=3, dmin=0, dmax=4, cost=cost,

@@ -105,7 +105,7 @@ def test_new_files_get_the_mode_a_plain_write_gives(tmp_path, umask):
     assert (tmp_path / "f.pfm").stat().st_mode & 0o777 == 0o666 & ~umask
 
 
-@pytest.mark.parametrize("source", ["jit/fast.py", "contract.py", "config.py",
+@pytest.mark.parametrize("source", ["jit/fast.py", "contract.py", "jit/options.py",
                                     "signature.py"])
 def test_the_cache_fingerprint_follows_every_source_the_workers_use(tmp_path, monkeypatch,
                                                                       source):

@@ -1,12 +1,14 @@
-"""csw compile puts in the cache every kernel a run can load (csw.matching.setup.
-documented_entries): drawn at random from the options table, no set of options needs
-one it leaves out (tests/cli/test_cli_startup.py runs one preset's end to end)."""
+"""csw compile puts in the cache every kernel a run can load (the catalogue's,
+csw.kernels.catalogue.every_entry): drawn at random from the options table, no set of
+options needs one it leaves out (tests/cli/test_cli_startup.py runs one preset's end to
+end)."""
 
 import numpy as np
 import pytest
 
 from csw.config import params
-from csw.matching.setup import LARGEST_WINDOW, config_entries, documented_entries
+from csw.kernels.catalogue import LARGEST_WINDOW, every_entry
+from csw.matching.setup import config_entries
 
 
 def random_value(option, rng):
@@ -32,7 +34,7 @@ def random_value(option, rng):
 
 
 def test_no_set_of_options_needs_a_kernel_compile_leaves_out():
-    everything = set(documented_entries())
+    everything = set(every_entry())
     rng = np.random.default_rng(2026)
     checked = 0
     while checked < 600:
@@ -52,10 +54,10 @@ def test_no_set_of_options_needs_a_kernel_compile_leaves_out():
             continue
         assert set(wanted) <= everything, given
         checked += 1
-    from csw.kernels import remap
+    from csw.kernels.catalogue import entry
 
-    assert set(remap.entries() + remap.entries("fixed") + remap.entries(np.uint8)
-               + remap.entries(np.uint16)) <= everything
+    assert {entry("remap", kind) for kind in ("maps", "fixed", np.uint8, np.uint16)} \
+        <= everything
 
 
 @pytest.mark.parametrize("name", ["csw_rule", "tau", "csw_margin", "speckle_range",

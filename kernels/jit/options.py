@@ -1,9 +1,7 @@
-"""The one place that names the Numba option sets used by every kernel.
-
-Kernels import these names instead of spelling ``@njit(...)`` flags themselves, so a
-change of policy (fastmath, error model) is made here once.  No function is cached by
-Numba: csw stores each compiled entry itself (kernels/native.py), and loads it without
-Numba.
+"""The Numba option sets of every worker and entry, named once here (jit/*.py use these
+names instead of spelling ``@njit(...)`` flags themselves), so that a change of policy
+(fastmath, error model) is made in one place.  No function is cached by Numba: csw
+stores each compiled entry itself (kernels/native.py), and loads it without Numba.
 """
 
 # Workers and helpers: serial, no Python objects, no exceptions raised (an entry that
