@@ -25,6 +25,8 @@ from .contract import (
     candidate_count,
     invalid,
 )
+from .runtime import default_threads
+from .store import target_cpu
 
 
 @functools.cache  # imported on first use; a stream calls this on every frame
@@ -43,4 +45,5 @@ def match(left, right, *, engine, **options):
 
 
 __all__ = ["COSTS", "ENGINE_NAMES", "INVALID", "NEG_INVALID", "RULES", "MatchResult",
-           "candidate_count", "catalogue", "contract", "invalid", "match", "native"]
+           "candidate_count", "catalogue", "contract", "default_threads", "invalid", "match",
+           "native", "target_cpu"]

@@ -185,7 +185,7 @@ def _filter_variant(kind):
 
 
 def _image_variant(pixels):
-    """Images of type ``pixels`` (the prefilter, the plans' padding)."""
+    """Images of type ``pixels`` (the prefilter, the bound calls' padding)."""
     return (dtype_name(pixels),)
 
 

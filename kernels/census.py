@@ -75,14 +75,14 @@ def _arguments(padded, codes, size, pattern, y0, y1, pad, reverse):
 
 def fits_one_stripe(shape, size, pattern):
     """Whether census_transform runs an image of ``shape`` as one stripe, in the calling
-    thread (what a :class:`CensusPlan` does)."""
+    thread (what a :class:`CensusCall` does)."""
     return shape[0] * shape[1] * len(_places_array(size, pattern)) < runtime.DIRECT_WORK
 
 
-class CensusPlan:
+class CensusCall:
     """census_transform of many images of one shape and type, made once: the padded
     copy, the codes and the bound call (a stream's small frames, whose whole match takes
-    a few milliseconds).  ``plan(image)`` writes the codes into ``plan.codes`` (H + 2 pad,
+    a few milliseconds).  ``call(image)`` writes the codes into ``call.codes`` (H + 2 pad,
     W + 2 pad), equal to census_transform's with the same arguments, in the calling
     thread as one stripe (for images :func:`fits_one_stripe` accepts)."""
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from . import native, runtime, store
 from .catalogue import entry
-from .census import CensusPlan, census_transform, fits_one_stripe
+from .census import CensusCall, census_transform, fits_one_stripe
 from .contract import (
     CENSUS,
     SHD,
@@ -112,14 +112,14 @@ def match_fast(left, right, *, window, dmin, dmax, cost, csw=False, tau=-1,
                    rule=rule, csw_margin=csw_margin, slack=slack,
                    census_window=census_window, census_pattern=census_pattern,
                    extras=extras, right_map=right_map, lr_check=lr_check)
-    if rows is None and workspace is not None and workspace.plans(np.size(left)):
-        # a plan kept from this thread's last match
+    if rows is None and workspace is not None and workspace.keeps_calls(np.size(left)):
+        # a call bound by this thread's last match
         key = (np.shape(left), np.asarray(left).dtype, np.shape(right),
                np.asarray(right).dtype, *options.values())
-        if len(key[0]) == 2 and FastPlan.fits(key[0], key[1], options):
-            plan = workspace.kept_or_made("fast-plan", key,
-                                          lambda: FastPlan(key[0], key[1], **options))
-            return plan(left, right, into)
+        if len(key[0]) == 2 and FastCall.fits(key[0], key[1], options):
+            call = workspace.kept_or_made("fast-call", key,
+                                          lambda: FastCall(key[0], key[1], **options))
+            return call(left, right, into)
     left, right, s, rows = validate(left, right, rows=rows, **options)
     height, width = left.shape
     ndisp = _checked_span(s)
@@ -208,11 +208,11 @@ def _never(acc):
     return int(np.iinfo(acc).max)
 
 
-class FastPlan:
+class FastCall:
     """match_fast for many pairs of one shape and type, made once: validated, with its
     padded images or census codes, its scratch and its bound entry calls (a stream's
     small frames, whose whole match takes a few milliseconds, paid about a millisecond
-    more for doing this on every call).  ``plan(left, right, into)`` equals match_fast
+    more for doing this on every call).  ``call(left, right, into)`` equals match_fast
     with the same options, bit for bit, in the calling thread as one stripe, on pairs of
     the planned shape and type (H, W).  Only what :meth:`fits` accepts is planned: a
     range from 0 up (no extra right columns), run as one stripe.  match_fast keeps one
@@ -233,8 +233,8 @@ class FastPlan:
         h = s.window // 2
         padded = (height + 2 * h, width + 2 * h)
         if s.cost == CENSUS:
-            self.left = CensusPlan(shape, pixels, census_window, census_pattern, pad=h)
-            self.right = CensusPlan(shape, pixels, census_window, census_pattern, pad=h,
+            self.left = CensusCall(shape, pixels, census_window, census_pattern, pad=h)
+            self.right = CensusCall(shape, pixels, census_window, census_pattern, pad=h,
                                     reverse=True)
             left_p, right_rev = self.left.codes, self.right.codes
             s = s._replace(cost=SHD)
@@ -276,7 +276,7 @@ class FastPlan:
     def __call__(self, left, right, into=None):
         if np.shape(left) != self.shape or np.shape(right) != self.shape or \
                 np.asarray(left).dtype != self.pixels or np.asarray(right).dtype != self.pixels:
-            raise ValueError(f"this plan matches {self.pixels} pairs of {self.shape}")
+            raise ValueError(f"this call matches {self.pixels} pairs of {self.shape}")
         s, call = self.s, self.call
         self.left(left)  # the census codes or the padded image, written in place
         self.right(right)

@@ -86,7 +86,7 @@ def as_float(disp, lr_valid, invalid, out=None, threads=None, workspace=None):
     arguments = dict(disp=disp, lr_valid=lr, out=out, invalid=int(invalid),
                      checked=int(checked))
     work = disp.size * FLOAT_WORK
-    if workspace is not None and work < runtime.DIRECT_WORK and workspace.plans(disp.size):
+    if workspace is not None and work < runtime.DIRECT_WORK and workspace.keeps_calls(disp.size):
         call = workspace.kept_or_made(
             "float-call", (disp.shape, arguments["invalid"], checked),
             lambda: native.entry(*entry("filters", "float")).bind(**arguments, y0=0,
@@ -121,10 +121,10 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None, clear=F
     disp = np.ascontiguousarray(disp, np.float32)
     height, width = disp.shape
     work = disp.size * SPECKLE_WORK
-    if workspace is not None and work < runtime.DIRECT_WORK and workspace.plans(disp.size):
+    if workspace is not None and work < runtime.DIRECT_WORK and workspace.keeps_calls(disp.size):
         key = (disp.shape, int(max_size), float(max_diff))
-        return workspace.kept_or_made("speckle-plan", key,
-                                      lambda: SpecklePlan(*key))(disp, clear)
+        return workspace.kept_or_made("speckle-call", key,
+                                      lambda: SpeckleCall(*key))(disp, clear)
     small = empty(workspace, "speckle-mask", disp.shape, np.uint8)
     parent, size = (empty(workspace, f"speckle-forest-{i}", (disp.size,), np.int32)
                     for i in range(2))
@@ -156,11 +156,11 @@ def _speckle_arguments(disp, small, parent, size, first, max_size, max_diff, ste
                 y1=y1, max_size=int(max_size))
 
 
-class SpecklePlan:
+class SpeckleCall:
     """speckle_mask of many maps of one shape, made once (a stream's small frames): its
     scratch, its mask and its bound calls (the regions, then the marks with or without
     clearing), run as one stripe in the calling thread.
-    ``plan(disp)`` returns the mask, the plan's own array, overwritten by the next call."""
+    ``call(disp)`` returns the mask, the call's own array, overwritten by the next call."""
 
     def __init__(self, shape, max_size, max_diff):
         height, width = shape

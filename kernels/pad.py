@@ -1,4 +1,4 @@
-"""Edge padding for the plans (kernels/census.py, kernels/fast.py): contract.pad_edge's
+"""Edge padding for the bound calls (kernels/census.py, kernels/fast.py): contract.pad_edge's
 result, written by one compiled pass (kernels/jit/pad.py) where NumPy took five, into an
 array bound once.  At 320 x 240 that is a few microseconds an image, against about 25."""
 

@@ -37,9 +37,9 @@ import numpy as np
 # save its codes.
 LARGEST = 8 << 20
 LIMIT = 64 << 20
-# What a kept plan holds a pixel, at most: a census plan's padded image and codes, the
+# What a kept bound call holds a pixel, at most: a census call's padded image and codes, the
 # speckle filter's forest, and the last outputs its bound calls still point at.
-PLAN_BYTES = 16
+CALL_BYTES = 16
 
 
 class Workspace:
@@ -74,12 +74,12 @@ class Workspace:
             buffer = self._held[role] = np.empty(nbytes, np.uint8)
         return buffer[:nbytes].view(dtype).reshape(shape)
 
-    def plans(self, pixels):
-        """Whether runs on images of ``pixels`` pixels keep a plan here: up to LARGEST
-        bytes at PLAN_BYTES a pixel (a plan keeps its scratch and, bound, its last
+    def keeps_calls(self, pixels):
+        """Whether runs on images of ``pixels`` pixels keep their bound calls here: up to LARGEST
+        bytes at CALL_BYTES a pixel (a bound call keeps its scratch and, bound, its last
         outputs), so about half a megapixel: the frames whose matches take a few
         milliseconds, where making the calls again cost up to a fifth of the time."""
-        return pixels * PLAN_BYTES <= self.largest
+        return pixels * CALL_BYTES <= self.largest
 
     def kept(self, role, key):
         """The object kept for ``role`` (:meth:`keep`) when it was kept under ``key``,
@@ -94,8 +94,8 @@ class Workspace:
 
     def keep(self, role, key, thing):
         """Keep ``thing`` for ``role`` under ``key`` (replacing what the role held) and
-        return it: a kernel's plan for the next runs like this one (kernels/fast.py).
-        Plans are made only for small images (:meth:`plans`), so they are not counted
+        return it: a kernel's bound call for the next runs like this one (kernels/fast.py).
+        Bound calls are kept only for small images (:meth:`keeps_calls`), so they are not counted
         in the limits."""
         self._kept[role] = (key, thing)
         return thing

@@ -24,7 +24,7 @@ from csw.data import layouts
 from csw.data.synth import render
 from csw.eval.scoring import metric_for, score, summary
 from csw.io import as_float_disparity, colorize
-from csw.kernels.runtime import default_threads
+from csw.kernels import default_threads
 from peers import cv2
 from report_common import cpu_name, fill_template, fmt, now_utc, peak_memory_mb
 

@@ -33,7 +33,7 @@ import peers  # noqa: E402
 from csw.data import layouts  # noqa: E402
 from csw.data.synth import render, write_tiff_scene  # noqa: E402
 from csw.io import read_disparity  # noqa: E402
-from csw.kernels.store import target_cpu  # noqa: E402
+from csw.kernels import target_cpu  # noqa: E402
 from csw.scale.tiled import match_tiled  # noqa: E402
 from report_common import (  # noqa: E402
     PEAK_PROBE,

@@ -37,7 +37,7 @@ def llvm_cpu():
     """The CPU the kernels are compiled for, as LLVM names it (znver1, znver3,
     skylake-avx512 ...): hosts that report one model name differ in vector width, which
     moves every ratio here."""
-    from csw.kernels.store import target_cpu
+    from csw.kernels import target_cpu
 
     return target_cpu()
 

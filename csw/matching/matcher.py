@@ -18,19 +18,9 @@ from ..config.params import resolve
 from ..io.images import read_image, to_gray
 from . import disparity_range
 from .disparity_range import crowded_end, shrink
-from .pipeline import match_rows
+from .pipeline import CandidateCounts, match_rows
 from .pipeline import run as run_pipeline
 from .setup import load_kernels, set_up
-
-
-class CandidateCounts:
-    """``evaluated`` and ``candidates`` of a match, whole or striped, and what CSW saved
-    of them (csw.Result and csw.TiledResult share it)."""
-
-    @property
-    def work_saved(self):
-        """Share (0..1) of plain matching's candidate costs that CSW skipped."""
-        return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
 
 
 def resolved(config, options, who):
@@ -213,7 +203,7 @@ class Matcher:
         pairs: an iterable of (left, right), paths or arrays as for :meth:`match`; it is
             read only as frames are started, so a camera or a video can feed it.
         in_flight: frames matched at once, each on threads of its own; default: as
-            :func:`stream_plan` decides from the first frame's size (small frames: one
+            :func:`stream_concurrency` decides from the first frame's size (small frames: one
             frame per thread, since a frame under about 50 million pixel-disparities
             runs on one thread; large ones: one frame at a time, cut into row stripes).
         errors: "raise" (a frame's error ends the stream) or "yield" (the frame's
@@ -243,7 +233,7 @@ class Matcher:
         planned = config  # a range found on each frame: planned with the first one's
         if shape is not None and not config.range_known:
             planned = config.replace(dmin=first.settings["dmin"], dmax=first.settings["dmax"])
-        frames, threads = stream_plan(planned, shape, in_flight)
+        frames, threads = stream_concurrency(planned, shape, in_flight)
         yield first
         frame_config = config.replace(threads=threads)
         # Frames in flight on a pool of their own, not csw.scale.executor.run_tasks (the
@@ -298,7 +288,7 @@ class Matcher:
 STREAM_STRIPES_WORK = 200_000_000
 
 
-def stream_plan(config, shape, in_flight=None):
+def stream_concurrency(config, shape, in_flight=None):
     """(frames in flight, threads per frame) for a stream of frames of ``shape`` (H, W;
     None: not known) matched with ``config`` (its range decided)."""
     threads = kernels.runtime.thread_count(config.threads)

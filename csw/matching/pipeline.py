@@ -61,7 +61,7 @@ def entries(args, stages, dtype, confidence=False):
         [entry for stage in active(stages, cost) for entry in stage.entries] + \
         [catalogue.entry("filters", "float")] + \
         ([catalogue.entry("prefilter", dtype)] if prefiltered else []) + \
-        ([catalogue.entry("pad", dtype)] if args["engine"] == "fast" else [])  # plans' padding
+        ([catalogue.entry("pad", dtype)] if args["engine"] == "fast" else [])  # calls' padding
 
 
 def compared_dtype(stages, dtype):
@@ -89,8 +89,19 @@ def confidence_map(min_cost, second, valid):
     return conf
 
 
+class CandidateCounts:
+    """``evaluated`` and ``candidates`` of a match, whole or striped, and what CSW saved
+    of them (the pipeline's Work, csw.Result and csw.TiledResult share it; the kernels'
+    MatchResult, a layer below, has its own)."""
+
+    @property
+    def work_saved(self):
+        """Share (0..1) of plain matching's candidate costs that CSW skipped."""
+        return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
+
+
 @dataclass
-class Work:
+class Work(CandidateCounts):
     """What a run's kernels did, beside its maps (arrays the caller owns).
 
     min_cost: int64 (H, W), the minimum cost m at the chosen d, -1 where no candidate.
@@ -102,10 +113,6 @@ class Work:
     evaluated: int
     candidates: int
 
-    @property
-    def work_saved(self):
-        """Share (0..1) of plain matching's candidate evaluations that were skipped."""
-        return 1.0 - self.evaluated / self.candidates if self.candidates else 0.0
 
 
 def run(left, right, kernel_args, stages, confidence=False, workspace=None):
@@ -148,7 +155,7 @@ def is_row_local(stages):
 
 
 @dataclass
-class _Run:
+class _StageInputs:
     """What the checks and subpixel read: the left image (as given), the kernels'
     MatchResult, the stages, the window, the rows matched (None: all) and the integer
     map's invalid value (kernels.invalid)."""
@@ -212,7 +219,7 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
     valid = np.not_equal(raw.disparity, invalid,
                          out=kernels.workspace.empty(workspace, "valid", raw.disparity.shape,
                                                      np.bool_))
-    run = _Run(left, raw, stages, kernel_args["window"], rows, invalid)
+    run = _StageInputs(left, raw, stages, kernel_args["window"], rows, invalid)
     for stage in checks:
         valid &= stage.step(run)
     disp = raw.disparity

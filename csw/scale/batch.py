@@ -270,17 +270,17 @@ def match_many(jobs, out_dir, *, suffix=".pfm", overwrite=False, progress=True,
 
 def _side_by_side(config, job):
     """(pairs at once, threads per pair) for a batch on this machine, from its first
-    pair's size as its header gives it (csw.matching.matcher.stream_plan), one at a time
+    pair's size as its header gives it (csw.matching.matcher.stream_concurrency), one at a time
     when that can't be read (the pair's own error comes when it is matched).  A range
     found from each pair (or its calib.txt) is planned with csw's one stand-in
     (csw.matching.disparity_range.assumed_range)."""
     from ..io.images import image_header
-    from ..matching.matcher import stream_plan
+    from ..matching.matcher import stream_concurrency
 
     try:
         height, width = image_header(job.left)[2]
     except (ValueError, OSError, TypeError):
         return 1, config.threads
-    return stream_plan(disparity_range.assumed_range(config, width), (height, width))
+    return stream_concurrency(disparity_range.assumed_range(config, width), (height, width))
 
 

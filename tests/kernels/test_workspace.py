@@ -64,7 +64,7 @@ def test_matches_through_the_workspace_equal_fresh_ones(small_scene, cost):
     for name in ("disparity", "min_cost", "right_disparity"):  # results own their maps
         array = getattr(got, name)
         assert not any(np.shares_memory(array, buffer) for buffer in ws._held.values())
-    # The padded images or census codes, kept: in a plan (kernels/fast.py) at this size.
+    # The padded images or census codes, kept: in a bound call (kernels/fast.py) at this size.
     assert ws.held() > 0 or ws._kept
 
 

@@ -5,7 +5,7 @@ import pytest
 
 import csw
 from csw.data.synth import render
-from csw.matching.matcher import STREAM_STRIPES_WORK, stream_plan
+from csw.matching.matcher import STREAM_STRIPES_WORK, stream_concurrency
 
 
 def frames(count, width=96, height=64, dmax=15, seed=3):
@@ -94,14 +94,14 @@ def test_an_empty_stream_yields_nothing():
 
 def test_stream_plan_puts_small_frames_side_by_side_and_stripes_large_ones():
     config = csw.config.params.resolve(dmax=63, threads=1)
-    assert stream_plan(config, (480, 640)) == (1, 1)
+    assert stream_concurrency(config, (480, 640)) == (1, 1)
     config = config.replace(threads=2)
-    assert stream_plan(config, (480, 640)) == (2, 1)
+    assert stream_concurrency(config, (480, 640)) == (2, 1)
     side = int(np.sqrt(STREAM_STRIPES_WORK / 64)) + 10
-    assert stream_plan(config, (side, side)) == (1, 2)
-    assert stream_plan(config, (480, 640), in_flight=1) == (1, 2)
+    assert stream_concurrency(config, (side, side)) == (1, 2)
+    assert stream_concurrency(config, (480, 640), in_flight=1) == (1, 2)
     with pytest.raises(ValueError, match="in_flight"):
-        stream_plan(config, (480, 640), in_flight=0)
+        stream_concurrency(config, (480, 640), in_flight=0)
 
 
 def test_repeated_matches_reuse_the_set_up_and_stay_equal():

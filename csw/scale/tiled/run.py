@@ -22,8 +22,8 @@ from ...io.outputs import PairOutputs
 from ...io.progress import progress_bar
 from ...io.sources import open_source
 from ...matching import disparity_range
-from ...matching.matcher import CandidateCounts, resolved
-from ...matching.pipeline import is_row_local, match_rows
+from ...matching.matcher import resolved
+from ...matching.pipeline import CandidateCounts, is_row_local, match_rows
 from ...matching.setup import set_up
 from ..executor import run_tasks
 from .plan import Plan, input_band, map_band, parse_size, plan

@@ -1,6 +1,6 @@
-"""Plans: a kernel's call made once and run again on each pair of a stream (bound entry
-calls, kernels/native.py; FastPlan, CensusPlan, SpecklePlan), and the one-pass float
-map.  A plan's result equals the unplanned call's bit for bit, pair after pair."""
+"""Bound calls: a kernel's call made once and run again on each pair of a stream (bound entry
+calls, kernels/native.py; FastCall, CensusCall, SpeckleCall), and the one-pass float
+map.  A bound call's result equals the plain call's bit for bit, pair after pair."""
 
 import numpy as np
 import pytest
@@ -8,8 +8,8 @@ import pytest
 from csw import kernels
 from csw.data.synth import render
 from csw.kernels import filters, native, runtime
-from csw.kernels.census import CensusPlan, census_transform
-from csw.kernels.fast import FastPlan, match_fast
+from csw.kernels.census import CensusCall, census_transform
+from csw.kernels.fast import FastCall, match_fast
 from csw.kernels.workspace import Workspace
 
 FIELDS = ("disparity", "min_cost", "second_cost", "prev_cost", "next_cost",
@@ -26,7 +26,7 @@ def assert_results_equal(got, expected):
 
 
 def pairs(dtype, count=3, seed=0):
-    """Random pairs and a rendered one, of one shape: a plan sees different pixels each
+    """Random pairs and a rendered one, of one shape: a bound call sees different pixels each
     time, so nothing of the last pair may leak into the next."""
     rng = np.random.default_rng(seed)
     top = np.iinfo(dtype).max
@@ -57,13 +57,13 @@ def test_a_planned_match_equals_a_fresh_one_pair_after_pair(case, dtype):
     for left, right in pairs(dtype):
         got = match_fast(left, right, workspace=workspace, **options)
         assert_results_equal(got, match_fast(left, right, **options))
-    plan = workspace.kept("fast-plan", (left.shape, left.dtype, right.shape, right.dtype,
+    call = workspace.kept("fast-call", (left.shape, left.dtype, right.shape, right.dtype,
                                         *_ordered(options).values()))
-    assert isinstance(plan, FastPlan)  # the workspace's plan did the matching
+    assert isinstance(call, FastCall)  # the workspace's bound call did the matching
 
 
 def _ordered(options):
-    """match_fast's options in the order of its plan's key, with its defaults."""
+    """match_fast's options in the order of its bound call's key, with its defaults."""
     names = ("window", "dmin", "dmax", "cost", "csw", "tau", "rule", "csw_margin", "slack",
              "census_window", "census_pattern", "extras", "right_map", "lr_check")
     defaults = dict(csw=False, tau=-1, rule="literal", csw_margin=None, slack=None,
@@ -88,36 +88,36 @@ def test_a_plan_writes_into_the_callers_outputs_and_results_own_their_maps():
 
 def test_what_a_plan_does_not_cover_runs_unplanned_with_equal_results():
     left, right = pairs(np.uint8, 1)[0]
-    assert not FastPlan.fits(left.shape, left.dtype, dict(dmin=-3, dmax=9, cost="sad"))
-    assert not FastPlan.fits((2000, 2000), np.dtype(np.uint8),
+    assert not FastCall.fits(left.shape, left.dtype, dict(dmin=-3, dmax=9, cost="sad"))
+    assert not FastCall.fits((2000, 2000), np.dtype(np.uint8),
                              dict(dmin=0, dmax=63, cost="sad"))  # more than one stripe
     workspace = Workspace()
     for options in (dict(dmin=-3, dmax=9), dict(dmin=0, dmax=9, rows=[0, 5, 9])):
         got = match_fast(left, right, window=5, cost="sad", workspace=workspace, **options)
         assert_results_equal(got, match_fast(left, right, window=5, cost="sad", **options))
-    assert workspace.kept("fast-plan", None) is None and not workspace._kept
+    assert workspace.kept("fast-call", None) is None and not workspace._kept
 
 
 def test_a_plan_refuses_a_pair_of_another_shape_or_type():
-    plan = FastPlan((40, 57), np.uint8, window=5, dmin=0, dmax=12, cost="sad")
+    call = FastCall((40, 57), np.uint8, window=5, dmin=0, dmax=12, cost="sad")
     left, right = pairs(np.uint8, 1)[0]
-    plan(left, right)
+    call(left, right)
     with pytest.raises(ValueError, match="pairs of"):
-        plan(left[:, :50], right[:, :50])
+        call(left[:, :50], right[:, :50])
     with pytest.raises(ValueError, match="pairs of"):
-        plan(left.astype(np.uint16), right.astype(np.uint16))
+        call(left.astype(np.uint16), right.astype(np.uint16))
 
 
 def test_a_census_plan_equals_the_transform_in_every_layout():
     rng = np.random.default_rng(3)
-    plans = {}
+    calls = {}
     for _ in range(2):
         image = rng.integers(0, 256, (31, 45), dtype=np.uint8)
         for pad, reverse in ((0, False), (2, False), (4, True)):
-            plan = plans.setdefault((pad, reverse), CensusPlan(
+            call = calls.setdefault((pad, reverse), CensusCall(
                 image.shape, image.dtype, 7, "dense", pad=pad, reverse=reverse))
             np.testing.assert_array_equal(
-                plan(image), census_transform(image, 7, pad=pad, reverse=reverse,
+                call(image), census_transform(image, 7, pad=pad, reverse=reverse,
                                               pattern="dense"))
 
 
@@ -162,7 +162,7 @@ def test_speckle_masks_and_clearing_equal_the_unplanned_filter(stripes, monkeypa
         got = filters.speckle_mask(cleared, 6, 1.0, workspace, clear=True)
         np.testing.assert_array_equal(got, expected)
         np.testing.assert_array_equal(cleared, np.where(expected, np.float32(np.nan), disp))
-    assert bool(workspace._kept) != stripes  # a plan for one stripe only
+    assert bool(workspace._kept) != stripes  # a bound call for one stripe only
 
 
 @pytest.mark.parametrize("invalid", [kernels.INVALID, kernels.NEG_INVALID])
