@@ -157,7 +157,7 @@ def pipeline_table(rows):
 
 
 def pipeline_memory():
-    """Peak RSS (MB) of whole `csw match` processes (default preset, 2 threads) at
+    """Peak RSS (MB) of whole `csw match` processes (preset accurate, 2 threads) at
     2880x1988 and 2880x3976, d 0..511: matched whole where it fits the default memory
     limit, and in stripes under --memory-limit 160MiB.  Returns {(height, mode): MB}."""
     from csw.io import write_png
@@ -173,7 +173,7 @@ def pipeline_memory():
             for mode, extra in (("default", []), ("160MiB", ["--memory-limit", "160MiB"])):
                 cmd = ["csw", "match", f"{tmp}/l.png", f"{tmp}/r.png", "-o",
                        f"{tmp}/d.tif" if extra else f"{tmp}/d.pfm", "--dmax", "511",
-                       "--threads", "2", "--overwrite", *extra]
+                       "--preset", "accurate", "--threads", "2", "--overwrite", *extra]
                 out = subprocess.run([sys.executable, "-c", PEAK_PROBE, *cmd], check=True,
                                      capture_output=True, text=True)
                 peaks[(height, mode)] = int(out.stdout.strip()) / 1024
