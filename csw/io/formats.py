@@ -474,10 +474,19 @@ def float_map_writer(path, values):
     format of the table: written whole where the format can, else a band at a time from
     the array; invalid (NaN) as the format stores it."""
     fmt = format_of(path, "confidence")
+    if not one_file(Path(path).suffix.lower()):
+        raise ValueError(f"{path}: a {Path(path).suffix} store is a folder, written in "
+                         "stripes; give a file format here "
+                         f"({', '.join(x for x in suffixes('confidence') if one_file(x))})")
     values = np.asarray(values, np.float32)
     if fmt.whole is not None:
         return fmt.whole(values)
     return fmt.stripes(path, values.shape, array_blocks(values))
+
+
+def one_file(suffix):
+    """Whether an output of this format is one file (a zarr store is a folder)."""
+    return FORMATS[suffix].stripes != "store"
 
 
 def array_blocks(values):

@@ -107,8 +107,8 @@ class PairOutputs:
             safety.check_target(path, role, folder_ok=path.suffix.lower() == ".zarr")
 
     def check_range(self, known_range):
-        """The map's format holds ``known_range`` (dmin, dmax; None: not known yet, the
-        map's values are checked when it is written)."""
+        """The map's format holds ``known_range`` (dmin, dmax, a bound not known yet
+        "auto": checked when the map is written; None: neither is known)."""
         if known_range is not None and "output" in self.paths:
             check_range_of(self.paths["output"], *known_range)
 

@@ -71,15 +71,15 @@ def _with_calibration(config, width, calibration):
 def known_range(config, width, calibration=None):
     """(dmin, dmax) as far as they are known before the pair's pixels are read (given,
     the preset's, a calibration's ndisp), for the checks made before any work (a map
-    format's range); None, csw's one way to say "not known yet", when a bound is "auto"
-    (found from the pair by :func:`decide`).  This decides nothing."""
+    format's range), each bound not known yet left "auto" (found from the pair by
+    :func:`decide`), csw's one way to say so.  This decides nothing."""
     config = _with_calibration(config, width, calibration)
-    return (config.dmin, config.dmax) if config.range_known else None
+    return config.dmin, config.dmax
 
 
 def assumed_range(config, width, calibration=None):
     """``config`` with a range to plan with (memory, threads) before the pair's own is
-    decided: :func:`known_range`, else each "auto" bound stood in for by the widest a
+    decided: :func:`known_range`, each "auto" bound stood in for by the widest a
     found one can usually be (dmin 0, dmax half the width: the coarse search's top,
     csw.matching.disparity_range._coarse).  The one stand-in for a range not known yet;
     never the range a pair is matched with."""

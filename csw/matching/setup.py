@@ -82,7 +82,7 @@ def set_up(config, shape, dtype, right=None, sample_min_cost=None, make_plan=Non
         _said_of("census_window", kernels.contract.census_dtype, stages.census_window,
                  stages.census_pattern)
     early_s = 0.0
-    if disparity_range.known_range(config, width, calibration) is None and \
+    if "auto" in disparity_range.known_range(config, width, calibration) and \
             shrunk is not None:
         # The coarse match and the match after it use different kernels: load both at
         # once, so that a first run on an empty cache compiles them together, on every

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..config.params import OptionError
 from ..io import safety
-from ..io.formats import check_map_range, suffixes
+from ..io.formats import check_map_range, one_file, suffixes
 from ..io.outputs import PairOutputs, check_range_of, role_suffixes
 from ..io.pictures import DisparityColours
 from ..io.progress import progress_bar
@@ -221,10 +221,12 @@ def _check_outputs(config, inputs, out_dir, suffix, summary, preview_video=None,
     for role, extra in (frame_outputs or {}).items():
         if out_dir is None:
             raise OptionError(role, "a frame's outputs go into --output-dir: give it")
-        if role not in FRAME_INFIX or str(extra).lower() not in role_suffixes(role):
+        # A frame's outputs are files beside its map: no store folders (zarr).
+        allowed = [s for s in role_suffixes(role) if one_file(s)] if role in FRAME_INFIX \
+            else []
+        if str(extra).lower() not in allowed:
             raise OptionError(role, f"a frame's {role.replace('_', ' ')} takes a format, "
-                                    f"one of {', '.join(role_suffixes(role))}; got "
-                                    f"{extra!r}")
+                                    f"one of {', '.join(allowed)}; got {extra!r}")
     for path in inputs:
         safety.protect(path)
     out_dir = Path(out_dir) if out_dir is not None else None

@@ -33,3 +33,16 @@ def test_a_map_csw_wrote_is_read_back_by_every_reader(pair_files, tmp_path, suff
                   "-o", tmp_path / "c.ply").exit_code == 0
     scored = invoke("score", tmp_path / f"d{suffix}", "--gt", tmp_path / "ref.pfm")
     assert scored.exit_code == 0, scored.output
+
+
+@pytest.mark.parametrize("bounds", [("--dmin", -4), ("--dmax", 300)])
+def test_a_bound_a_map_format_cant_hold_is_refused_before_any_work(pair_files, tmp_path,
+                                                                   bounds):
+    """A negative dmin for an integer PNG, or a dmax past its 255.99, with the other
+    bound found from the pair: refused at once, naming the option, no file written."""
+    left, right = pair_files
+    result = invoke("match", left, right, "-o", tmp_path / "d.png", *bounds)
+    assert result.exit_code == 2, result.output
+    assert "Invalid value for --dmax" in result.output and "write .pfm" in result.output
+    assert "Traceback" not in result.output
+    assert not (tmp_path / "d.png").exists()

@@ -209,11 +209,13 @@ def test_a_batch_makes_one_matcher_and_reuses_its_set_up(tmp_path, pairs, monkey
     assert len(set_ups) == 1  # three pairs of one size and range: one set-up
 
 
+@pytest.mark.parametrize("suffix", [".png", ".zarr"])  # not floats; a folder, not a file
 def test_a_frames_output_in_a_format_its_role_cannot_take_fails_before_any_frame(tmp_path,
-                                                                                  pairs):
+                                                                                  pairs,
+                                                                                  suffix):
     drive = kitti_drive(tmp_path, pairs)
     result = CliRunner().invoke(cli, ["match", str(drive), "-O", str(tmp_path / "frames"),
-                                      "--confidence", ".png", *OPTIONS])
+                                      "--confidence", suffix, *OPTIONS])
     assert result.exit_code == 2, result.output
     assert "--confidence" in result.output and ".pfm" in result.output
     assert len(result.output.strip().splitlines()) == 1
