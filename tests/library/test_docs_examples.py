@@ -34,8 +34,9 @@ SKIP = {
                               "(tests/library/test_compile_all.py checks what it compiles)",
 }
 NEEDS_DATA = re.compile(r"--dataset (?!synthetic)|(^|\s)-d \w|load_dataset\(\"(?!synthetic)")
-# Examples that take seconds or more: compiling, a cluster, a benchmark, rigs, video.
-SLOW = re.compile(r"csw compile|--workers|csw bench|--rig|--frames")
+# Examples that take seconds or more: compiling, a cluster, a benchmark, rigs, video,
+# robot logs, depth and clouds of several pairs.
+SLOW = re.compile(r"csw compile|--workers|csw bench|--rig|--frames|\.mcap|--cloud")
 
 WIDTH, HEIGHT, DMAX = 450, 375, 15  # d*16 fits an 8-bit PGM, as Tsukuba's truth does
 BASELINE_M, FOCAL = 0.1, 450.0
