@@ -13,16 +13,8 @@ import pytest
 SCRIPTS = Path(__file__).parents[2] / "scripts"
 
 
-@pytest.mark.parametrize("path", sorted(SCRIPTS.glob("*.py")), ids=lambda p: p.name)
-def test_every_report_script_imports(path, monkeypatch):
-    monkeypatch.syspath_prepend(str(SCRIPTS))
-    spec = importlib.util.spec_from_file_location(f"_script_{path.stem}", path)
-    module = importlib.util.module_from_spec(spec)
-    monkeypatch.setitem(sys.modules, spec.name, module)
-    spec.loader.exec_module(module)  # module level only: each runs under __main__
-
-
 def load_script(name, monkeypatch):
+    """scripts/NAME.py imported, module level only (each report runs under __main__)."""
     path = SCRIPTS / f"{name}.py"
     monkeypatch.syspath_prepend(str(SCRIPTS))
     spec = importlib.util.spec_from_file_location(f"_script_{name}", path)
@@ -30,6 +22,11 @@ def load_script(name, monkeypatch):
     monkeypatch.setitem(sys.modules, spec.name, module)
     spec.loader.exec_module(module)
     return module
+
+
+@pytest.mark.parametrize("path", sorted(SCRIPTS.glob("*.py")), ids=lambda p: p.name)
+def test_every_report_script_imports(path, monkeypatch):
+    load_script(path.stem, monkeypatch)
 
 
 def test_the_stream_report_rewritten_from_its_figures_is_the_committed_one(monkeypatch):
