@@ -51,6 +51,19 @@ def test_speckle_median_fill(seed, size, step):
     assert np.isfinite(filled).all()
 
 
+def test_median_of_a_frame_splits_its_rows_and_changes_nothing(monkeypatch):
+    """A KITTI-size median is worth both threads: its stripes give the one-thread map."""
+    disp = random_map(np.random.default_rng(5), (300, 400))
+    one = filters.median_valid(disp, 3, threads=1)
+    counts = []
+    real = runtime.run_stripes
+    monkeypatch.setattr(runtime, "run_stripes",
+                        lambda stripe, count, *a: counts.append(count) or
+                        real(stripe, count, *a))
+    np.testing.assert_array_equal(filters.median_valid(disp, 3, threads=2), one)
+    assert counts == [2]
+
+
 @settings(deadline=None, max_examples=40)
 @given(seed=st.integers(0, 2**31), size=st.integers(1, 40), step=st.sampled_from([0.5, 1]),
        height=st.integers(2, 30))
