@@ -77,15 +77,15 @@ def memory(height, width, ndisp, window, paths, threads, band_bytes=None, slots=
     states = 2 * down if single else 4 * down  # two buffers a path going down or up
     if slots is not None:
         state = width * (3 * slots + 4) * 4
-        rows = band_rows(height, width, slots, 8, state / width / slots, band_bytes,
-                         single)
-        kept = 0 if single else (math.ceil(height / rows) - 1) * down * state
+        bands, rows = band_plan(height, width, slots, 8, state / width / slots,
+                                band_bytes, single)
+        kept = 0 if single else (len(bands) - 1) * down * state
         return rows * width * slots * 8 + states * state + kept + \
             threads * (width + window) * ndisp * 4 + height * width * 4
     state = width * (ndisp + 2) * 4
-    rows = band_rows(height, width, ndisp, 8, down * state / width / ndisp, band_bytes,
-                     single)
-    kept = 0 if single else (math.ceil(height / rows) - 1) * down * state
+    bands, rows = band_plan(height, width, ndisp, 8, down * state / width / ndisp,
+                            band_bytes, single)
+    kept = 0 if single else (len(bands) - 1) * down * state
     scratch = threads * (width + window) * ndisp * (4 + window)
     return rows * width * ndisp * 8 + states * state + kept + scratch
 
@@ -123,6 +123,30 @@ def band_rows(height, width, ndisp, itemsize, kept_itemsize, band_bytes=None,
         return height
     best = max(MIN_BAND_ROWS, round(math.sqrt(height * kept_itemsize / itemsize)))
     return int(max(1, min(height, best, band_bytes // per_row)))
+
+
+# Where a pair is cut into bands, pass 1 makes the costs and down paths of every band
+# but the bottom one, and pass 2 makes them again: each row the bottom band holds is
+# made once.  So the bottom band takes as many rows as fit this many bytes, beyond the
+# other bands' least-memory height (a KITTI pair at d 0..191: 137 rows rather than 32).
+LAST_BAND_BYTES = 128 << 20
+
+
+def band_plan(height, width, ndisp, itemsize, kept_itemsize, band_bytes=None,
+              single_pass=False):
+    """The bands, (y0, y1) from the top, and the slabs' rows (the tallest band's): bands
+    of band_rows(...) rows (the arguments are its), but the bottom one, which takes as
+    many as fit LAST_BAND_BYTES (or band_bytes where less) where the pair is cut in two
+    passes."""
+    rows = band_rows(height, width, ndisp, itemsize, kept_itemsize, band_bytes,
+                     single_pass)
+    if single_pass or rows >= height:
+        return [(y0, min(y0 + rows, height)) for y0 in range(0, height, rows)], rows
+    budget = min(BAND_BYTES if band_bytes is None else band_bytes, LAST_BAND_BYTES)
+    last = int(min(height - 1, max(rows, budget // (width * ndisp * itemsize))))
+    top = height - last
+    bands = [(y0, min(y0 + rows, top)) for y0 in range(0, top, rows)]
+    return bands + [(top, height)], max(rows, last)
 
 
 def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
@@ -214,11 +238,10 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         np.empty((1, width), np.uint8)
     single_pass = paths == 5
     pad = pad_of(ndisp, banded)
-    rows_per_band = band_rows(height, width, ndisp,
-                              acc.itemsize + cost_type(cmax, acc).itemsize,
-                              downward_paths(paths) * acc.itemsize * (ndisp + 2 * pad) / ndisp,
-                              band_bytes, single_pass)
-    bands = [(y0, min(y0 + rows_per_band, height)) for y0 in range(0, height, rows_per_band)]
+    bands, rows_per_band = band_plan(height, width, ndisp,
+                                     acc.itemsize + cost_type(cmax, acc).itemsize,
+                                     downward_paths(paths) * acc.itemsize *
+                                     (ndisp + 2 * pad) / ndisp, band_bytes, single_pass)
     costs = np.empty((rows_per_band, width, ndisp), cost_type(cmax, acc))
     sums = np.empty((rows_per_band, width, ndisp), acc)
     never = int(np.iinfo(acc).max)

@@ -67,6 +67,21 @@ def test_bands_and_threads_change_nothing(paths, threads):
         assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
 
 
+def test_a_taller_bottom_band_changes_nothing(monkeypatch):
+    """The bottom band, made once, may be taller than the others (sgm.LAST_BAND_BYTES):
+    bands of 2 rows above one of 6, the same sums as one band."""
+    monkeypatch.setattr(sgm, "MIN_BAND_ROWS", 2)
+    rng = np.random.default_rng(7)
+    left, right = pair(rng, 13, 16)
+    kw = dict(window=3, dmin=0, dmax=6, cost="sad", paths=4, p1=40, p2=300)
+    row = one_row_bands(left, 0, 6, itemsize=4)
+    monkeypatch.setattr(sgm, "LAST_BAND_BYTES", 6 * row)
+    bands, rows = sgm.band_plan(13, 16, 7, 4, 0.5, 8 * row)
+    assert bands == [(0, 2), (2, 4), (4, 6), (6, 7), (7, 13)] and rows == 6
+    for threads in (1, 2):
+        assert_equals_oracle(left, right, band_bytes=8 * row, threads=threads, **kw)
+
+
 def random_starts(rng, shape, ndisp, slots):
     """Per-pixel starts in blobs, as a half-size pass makes them, with jumps between."""
     coarse = rng.integers(0, ndisp - slots + 1, ((shape[0] + 2) // 3, (shape[1] + 2) // 3))
