@@ -71,7 +71,7 @@ def memory(height, width, ndisp, window, paths, threads, band_bytes=None, slots=
     (32-bit sums): the band's slabs, the paths' states and the down paths' states kept
     at each band's start (none in a single sweep: 5 paths), and each thread's cost
     scratch (column sums and Hamming costs' ring).  slots: a banded match's K (its slabs
-    and states hold K, its states' pads 2K + 4 more; its column sums the whole range;
+    and states hold K, its states' pads 2K + 4 more; its cost scratch the whole range;
     and its starts)."""
     down, single = downward_paths(paths), paths == 5
     states = 2 * down if single else 4 * down  # two buffers a path going down or up
@@ -80,8 +80,10 @@ def memory(height, width, ndisp, window, paths, threads, band_bytes=None, slots=
         bands, rows = band_plan(height, width, slots, 8, state / width / slots,
                                 band_bytes, single)
         kept = 0 if single else (len(bands) - 1) * down * state
+        # Each thread's cost scratch: column sums, the ring and a row's costs, of the
+        # whole range.
         return rows * width * slots * 8 + states * state + kept + \
-            threads * (width + window) * ndisp * 4 + height * width * 4
+            threads * (width + window) * ndisp * (8 + window) + height * width * 4
     state = width * (ndisp + 2) * 4
     bands, rows = band_plan(height, width, ndisp, 8, down * state / width / ndisp,
                             band_bytes, single)
@@ -266,6 +268,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     dummy2 = np.empty((1, 1), acc)
     base = dict(left_p=left_p, right_rev=right_rev, costs=costs, sums=sums,
                 col_sums=dummy2, row_sums=np.empty(1, acc), ring=np.empty((1, 1, 1), np.uint8),
+                row_costs=np.empty((1, 1), costs.dtype),
                 state=dummy3, mins=dummy2,
                 other=dummy3, other_mins=dummy2, line=dummy2,
                 right_best=np.empty(1, acc), right_d=np.empty(1, np.int16),
@@ -292,11 +295,14 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         runtime.run_stripes(stripe, count, count, work)
 
     def cost_scratch():
-        # Hamming costs' ring of the window's rows (kernels/jit/sgm.py): w x Wp x D bytes
-        ring = (s.window, left_p.shape[1], ndisp) if s.cost == SHD and s.window > 1 \
-            and not banded else (1, 1, 1)
-        return dict(col_sums=np.empty((left_p.shape[1], whole if banded else ndisp), acc),
-                    row_sums=np.empty(ndisp, acc), ring=np.empty(ring, np.uint8))
+        # Hamming costs' ring of the window's rows (kernels/jit/sgm.py): w x Wp x D bytes;
+        # a banded match slides its sums over the whole range, a row at a time.
+        full = whole if banded else ndisp
+        ring = (s.window, left_p.shape[1], full) if s.cost == SHD and s.window > 1 \
+            else (1, 1, 1)
+        return dict(col_sums=np.empty((left_p.shape[1], full), acc),
+                    row_sums=np.empty(full, acc), ring=np.empty(ring, np.uint8),
+                    row_costs=np.empty((width, full) if banded else (1, 1), costs.dtype))
 
     def select_scratch():
         line = np.full((2, ndisp + 2 * pad), big, acc)

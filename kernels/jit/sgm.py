@@ -67,6 +67,7 @@ def spec(cost, pixels, costs, accumulator, negative=False, banded=False):
               arg("costs", cst, 3), arg("sums", acc, 3),  # (B, W, D) the band's slabs
               arg("col_sums", acc, 2), arg("row_sums", acc, 1),  # (Wp, D), (D,) scratch
               arg("ring", u8, 3),  # (w, Wp, D) scratch for "shd", else (1, 1, 1)
+              arg("row_costs", cst, 2),  # (W, D) a banded variant's scratch, else (1, 1)
               arg("state", acc, 3), arg("mins", acc, 2),  # (2, W, D + 2), (2, W)
               arg("other", acc, 3), arg("other_mins", acc, 2),  # a diagonal's partner
               arg("line", acc, 2),  # (2, D + 2) a horizontal path's scratch
@@ -150,69 +151,34 @@ def _make(cost, cost_type, acc, negative, banded):
                     s[k] = s[k] + psi(lv, r[k]) - psi(lv_sub, r_sub[k])
 
     @njit(**SERIAL)
-    def banded_cost_rows(left_p, right_rev, costs, columns, starts, sc, stop):
-        """costs[y - band_y0, x, k] = C(y, x, dmin + starts[y, x] + k) for rows y0 <= y
-        < y1.  Each row first sums each padded column's w costs, columns[j, d - dmin],
-        for the d that the pixels whose windows hold column j search; then each pixel
-        sums w columns.  columns: (Wp, D) scratch of the accumulator's type."""
-        w, dmin, cmax = sc[SC.window], sc[SC.dmin], cost_type(sc[SC.cmax])
-        y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
-        width, slots = costs.shape[1], costs.shape[2]
-        wp, wr = left_p.shape[1], right_rev.shape[1]
-        for y in range(y0, y1):
-            if stop_requested(stop):
-                return 0
-            row_starts = starts[y]
-            for j in range(wp):
-                # Pixels j - w + 1 .. j hold padded column j in their windows.
-                first, last = 1 << 30, -1
-                for x in range(max(j - w + 1, 0), min(j, width - 1) + 1):
-                    first = min(first, row_starts[x])
-                    last = max(last, row_starts[x] + slots - 1)
-                # Right pixel j - d within the padded row: j - wp + 1 <= d <= j.
-                k0 = max(first, j - wp + 1 - dmin)
-                k1 = min(last, j - dmin)
-                column = columns[j]
-                for k in range(k0, k1 + 1):
-                    column[k] = 0
-                for a in range(w):
-                    lv = left_p[y + a, j]
-                    r = right_rev[y + a, wr - 1 - j + dmin:]
-                    for k in range(k0, k1 + 1):
-                        column[k] = column[k] + psi(lv, r[k])
-            out = costs[y - band_y0]
-            for x in range(width):
-                start = row_starts[x]
-                first_d = dmin + start
-                # Candidates: d <= x and x - d <= width - 1 (k in lo..n - 1).
-                n = max(min(slots, x - first_d + 1), 0)
-                lo = min(max(x - first_d - (width - 1), 0), n) if negative else 0
-                c = out[x]
-                for k in range(lo):
-                    c[k] = cmax
-                for k in range(n, slots):
-                    c[k] = cmax
-                for k in range(lo, n):
-                    c[k] = 0
-                for b in range(w):
-                    column = columns[x + b, start:]
-                    for k in range(lo, n):
-                        c[k] = c[k] + column[k]
-        return 0
+    def gather(row, out, row_starts):
+        """A banded variant's slab row: out[x, k] = row[x, row_starts[x] + k], row being
+        the whole range's costs of the image row (cmax where d has no right pixel)."""
+        slots = out.shape[1]
+        for x in range(out.shape[0]):
+            source = row[x, row_starts[x]:]
+            target = out[x]
+            for k in range(slots):
+                target[k] = source[k]
 
     @njit(**SERIAL)
-    def cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, sc, stop):
+    def cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, row_costs, starts,
+                  sc, stop):
         """costs[y - band_y0, x, k] = C(y, x, dmin + k) for rows y0 <= y < y1: column
-        sums moved down the rows, row sums slid along each row (kernels/jit/fast.py)."""
+        sums moved down the rows, row sums slid along each row (kernels/jit/fast.py).
+        A banded variant makes each row's costs over the whole range in row_costs, (W,
+        D), and gathers each pixel's slots from there: sliding sums need every d of
+        a column, and the pixels beside it search others."""
         w, dmin, cmax = sc[SC.window], sc[SC.dmin], cost_type(sc[SC.cmax])
         y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
-        width, ndisp = costs.shape[1], costs.shape[2]
+        width = costs.shape[1]
+        ndisp = row_costs.shape[1] if banded else costs.shape[2]
         if w == 1:  # each pixel's own cost: no sums to move
             wr = right_rev.shape[1]
             for y in range(y0, y1):
                 if stop_requested(stop):
                     return 0
-                out = costs[y - band_y0]
+                out = row_costs if banded else costs[y - band_y0]
                 left, right = left_p[y], right_rev[y]
                 for x in range(width):
                     n = max(min(ndisp, x - dmin + 1), 0)
@@ -226,6 +192,8 @@ def _make(cost, cost_type, acc, negative, banded):
                         c[k] = cost_type(psi(lv, r[k]))
                     for k in range(n, ndisp):
                         c[k] = cmax
+                if banded:
+                    gather(out, costs[y - band_y0], starts[y])
             return 0
         col_sums[:] = 0
         for a in range(w):
@@ -244,7 +212,7 @@ def _make(cost, cost_type, acc, negative, banded):
                 s = col_sums[b]
                 for k in range(ndisp):
                     row_sums[k] = row_sums[k] + s[k]
-            out = costs[y - band_y0]
+            out = row_costs if banded else costs[y - band_y0]
             for x in range(width):
                 add = col_sums[x + w - 1]
                 sub = col_sums[x - 1] if x > 0 else col_sums[0]
@@ -257,6 +225,8 @@ def _make(cost, cost_type, acc, negative, banded):
                     v = acc(row_sums[k] + add[k] - sub[k] * keep)
                     row_sums[k] = v
                     c[k] = cost_type(v) if lo <= k < n else cmax
+            if banded:
+                gather(out, costs[y - band_y0], starts[y])
         return 0
 
     @njit(**SERIAL)
@@ -566,14 +536,13 @@ def _make(cost, cost_type, acc, negative, banded):
         return 0
 
     @njit(**SERIAL)
-    def worker(left_p, right_rev, costs, sums, col_sums, row_sums, ring, state, mins,
-               other, other_mins, line, right_best, right_d, disp, min_cost, second, prev,
+    def worker(left_p, right_rev, costs, sums, col_sums, row_sums, ring, row_costs, state,
+               mins, other, other_mins, line, right_best, right_d, disp, min_cost, second, prev,
                nxt, right_disp, lr_valid, starts, stop, sc):
         step = sc[SC.step]
         if step == COSTS:
-            if banded:
-                return banded_cost_rows(left_p, right_rev, costs, col_sums, starts, sc, stop)
-            return cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, sc, stop)
+            return cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, row_costs,
+                             starts, sc, stop)
         if step == VERTICAL:
             return vertical(costs, sums, state, mins, starts, sc, stop)
         if step == DIAGONAL:
