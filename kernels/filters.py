@@ -192,11 +192,11 @@ def median_valid(disp, size, threads=None):
     size x size window (the lower middle for an even count); invalid pixels stay NaN."""
     disp = np.ascontiguousarray(disp, np.float32)
     out = np.empty_like(disp)
-    # An insertion sort of up to size^2 values a pixel: about 100 ns a pixel at 3 x 3 and
-    # 400 at 5 x 5 in one thread, so a KITTI frame's median is worth both threads.
+    # One thread: about 30 ns a pixel at 3 x 3 (a sorting network), 400 at 5 x 5 (an
+    # insertion sort), so a KITTI frame's median is worth both threads.
     _by_rows("median", dict(disp=disp, out=out, size=int(size)), disp.shape[0],
              scratch={"window": lambda: np.empty(size * size, np.float32)}, threads=threads,
-             per_pixel=20 * int(size) ** 3)
+             per_pixel=170 if size == 3 else 20 * int(size) ** 3)
     return out
 
 

@@ -2,6 +2,7 @@
 keeps its promises (checks only remove pixels, fill leaves none invalid, subpixel stays
 within half a pixel of the integer winner)."""
 
+import itertools
 from dataclasses import replace
 
 import numpy as np
@@ -51,9 +52,29 @@ def test_speckle_median_fill(seed, size, step):
     assert np.isfinite(filled).all()
 
 
+def test_the_3x3_medians_network_sorts_every_input():
+    """By the 0-1 principle, a network that sorts all 512 inputs of 0s and 1s sorts
+    every input of 9."""
+    from csw.kernels.jit.filters import NINE
+
+    for bits in itertools.product((0, 1), repeat=9):
+        values = list(bits)
+        for i, j in NINE:
+            values[i], values[j] = min(values[i], values[j]), max(values[i], values[j])
+        assert values == sorted(bits)
+
+
+def test_a_3x3_median_with_infinities_and_edges_equals_the_oracle():
+    disp = random_map(np.random.default_rng(11), (9, 13))
+    disp[0, 3] = disp[4, 4] = np.inf
+    disp[8, 12] = -np.inf
+    np.testing.assert_array_equal(filters.median_valid(disp, 3),
+                                  oracle.median_valid(disp, 3))
+
+
 def test_median_of_a_frame_splits_its_rows_and_changes_nothing(monkeypatch):
     """A KITTI-size median is worth both threads: its stripes give the one-thread map."""
-    disp = random_map(np.random.default_rng(5), (300, 400))
+    disp = random_map(np.random.default_rng(5), (400, 800))
     one = filters.median_valid(disp, 3, threads=1)
     counts = []
     real = runtime.run_stripes
