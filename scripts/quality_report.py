@@ -56,8 +56,8 @@ CSW = {
     RECOMMENDED: dict(preset="accurate"),
     SGM: dict(preset="sgm"),
     CAMERA: dict(preset="camera"),
-    # The narrowed search (docs/engines.md): a half-size pass, then 32 disparities a pixel.
-    "csw sgm, narrowed to 32": dict(preset="sgm", sgm_narrow=32),
+    # The preset narrows ranges wider than 64 (docs/engines.md): this is its whole search.
+    "csw sgm, whole range": dict(preset="sgm", sgm_narrow=0),
     # OpenCV SGBM's 5 paths: one sweep down, no second pass (docs/engines.md).
     "csw sgm, 5 paths": dict(preset="sgm", sgm_paths=5),
     # The default's census before it became sparse 9x9: what that change traded.

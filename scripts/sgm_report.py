@@ -73,10 +73,10 @@ def speed(name, left, right, dmax, rounds):
                                                threads=1),
         "csw sgm, 2 threads": lambda: csw.match(left, right, preset=PRESET, dmin=0,
                                                 dmax=dmax, threads=2),
-        "csw sgm narrowed to 32, 1 thread": lambda: csw.match(
-            left, right, preset=PRESET, sgm_narrow=32, dmin=0, dmax=dmax, threads=1),
-        "csw sgm narrowed to 32, 2 threads": lambda: csw.match(
-            left, right, preset=PRESET, sgm_narrow=32, dmin=0, dmax=dmax, threads=2),
+        "csw sgm whole range, 1 thread": lambda: csw.match(
+            left, right, preset=PRESET, sgm_narrow=0, dmin=0, dmax=dmax, threads=1),
+        "csw sgm whole range, 2 threads": lambda: csw.match(
+            left, right, preset=PRESET, sgm_narrow=0, dmin=0, dmax=dmax, threads=2),
         "csw sgm 5 paths, 1 thread": lambda: csw.match(
             left, right, preset=PRESET, sgm_paths=5, dmin=0, dmax=dmax, threads=1),
         "csw sgm 5 paths, 2 threads": lambda: csw.match(
