@@ -53,6 +53,15 @@ def test_the_summary_names_the_census_codes_apart_from_the_window(pair_files, tm
     assert described in result.stderr
 
 
+@pytest.mark.parametrize("dmax, narrowed", [(16, False), (63, False), (64, True)])
+def test_the_summary_says_when_the_range_is_narrowed(pair_files, tmp_path, dmax, narrowed):
+    """The sgm preset narrows only a range wider than its 64 slots."""
+    left, right = pair_files
+    result = run("match", left, right, "-o", tmp_path / "d.pfm", "--dmax", dmax)
+    assert result.exit_code == 0, result.output
+    assert ("64 disparities a pixel after a half-size pass" in result.stderr) == narrowed
+
+
 def test_pfm_is_bottom_to_top_little_endian(tmp_path):
     from csw.io import write_disparity
 
