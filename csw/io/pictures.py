@@ -168,5 +168,7 @@ class DisparityColours:
         # side is NaN, in one pass (a masked assignment took longer than the rest).
         np.fmin(t, np.float32(len(_TURBO_RGBA) - 1), out=t)
         np.copyto(index, t, casting="unsafe")  # truncation, as astype
-        np.take(_TURBO_RGBA, index, out=self.rgba)
+        # mode "clip" (the indices are in range already): under the default, "raise",
+        # take writes through a buffer the size of the frame (1.0 ms of 640x480, 0.55 so).
+        np.take(_TURBO_RGBA, index, out=self.rgba, mode="clip")
         return self.rgba.view(np.uint8).reshape(*disparity.shape, 4)
