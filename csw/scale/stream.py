@@ -587,34 +587,36 @@ class _FrameRun:
             raise VideoError(self.halt)
 
     def write_preview(self, frame, disparity):
-        if disparity is None:  # a lost frame: black, once the video's size is known
-            if self.size is None:
-                return
-            picture = np.zeros((self.size[1], self.size[0], 4), np.uint8)
-        else:
-            low, high = self.range
-            picture = self.colours(disparity, low, high)
-        if self.preview_sbs:
-            left = frame.colour if frame.colour is not None else \
-                np.zeros_like(picture)
-            picture = np.concatenate([left, picture], axis=1)
+        if disparity is None and self.size is None:
+            return  # a lost frame before the video's size is known: nothing to show yet
         if self.preview is None:
             self.preview = VideoWriter(self.preview_path, self.rate)
-        self.preview.write(self.with_bar(picture))
+        width, height = self.size
+        canvas = self.with_bar(width * 2 if self.preview_sbs else width)
+        top = canvas[:height]
+        if disparity is None:  # a lost frame: black
+            top[:] = 0
+        elif self.preview_sbs:
+            top[:, width:] = self.colours(disparity, *self.range)
+        else:  # coloured in place, into the writer's own frame: no copy of it
+            self.colours(disparity, *self.range, out=top)
+        if self.preview_sbs:
+            top[:, :width] = frame.colour if frame.colour is not None else 0
+        self.preview.write(canvas)
 
-    def with_bar(self, picture):
-        """The frame with the still previews' colour bar under the map (disparity in
-        pixels over the range so far), drawn again only when the range grows."""
+    def with_bar(self, picture_width):
+        """The preview's frame (the writer's canvas: VideoWriter.canvas) with the still
+        previews' colour bar under the map (disparity in pixels over the range so far),
+        drawn again only when the range grows; the rows above it are the caller's."""
         from ..io.pictures import BACKGROUND, bar
 
         width, height = self.size
         if self.bar_range != self.range:
             strip = bar(width, *self.range, "disparity (pixels)")
-            self.canvas = np.empty((height + strip.shape[0], picture.shape[1], 4), np.uint8)
+            self.canvas = self.preview.canvas(height + strip.shape[0], picture_width)
             self.canvas[height:] = (*BACKGROUND, 255)
             self.canvas[height:, -width:, :3] = strip
             self.bar_range = list(self.range)
-        self.canvas[:height] = picture
         return self.canvas
 
     def add(self, index, status, stamp=None, **fields):

@@ -171,3 +171,21 @@ def test_match_on_files_takes_the_calib_txt_beside_them_as_csw_match_does(tmp_pa
     assert from_python["range_source"] == from_cli["range_source"]
     assert csw.match(*paths, dmax=15).settings["dmax"] == 15
     assert csw.match(left, right).settings["range_source"].startswith("auto")  # arrays
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64, np.int32])
+def test_a_map_s_pfm_has_every_invalid_pixel_inf_whatever_its_type(tmp_path, dtype):
+    """The .pfm writer takes a float map as it is (one copy makes NaN and +-inf inf), an
+    integer one through disparity_to_file_float (-1 invalid): both give the bytes of
+    disparity_to_file_float's float32 map, inf invalid, rows bottom up."""
+    from csw.io.formats import disparity_to_file_float, disparity_writer, pfm_writer
+
+    if dtype == np.int32:
+        disp = np.array([[-1, 3, 7], [0, -1, 12]], dtype)
+    else:
+        disp = np.array([[np.nan, 3.25, -np.inf], [np.inf, -0.5, 1e30]]).astype(dtype)
+    disparity_writer(tmp_path / "d.pfm", disp)(tmp_path / "d.pfm")
+    pfm_writer(disparity_to_file_float(disp))(tmp_path / "e.pfm")
+    assert (tmp_path / "d.pfm").read_bytes() == (tmp_path / "e.pfm").read_bytes()
+    back = csw.read_disparity(tmp_path / "d.pfm")
+    assert np.isnan(back).sum() == (2 if dtype == np.int32 else 3)

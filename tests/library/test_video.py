@@ -201,6 +201,36 @@ def test_a_stream_of_colours_reuses_its_arrays_and_equals_fresh_ones():
     assert np.shares_memory(colours(disparity, 0, 15), colours(disparity, 0, 15))  # of one
 
 
+def test_colours_drawn_in_place_equal_the_colourer_s_own():
+    rng = np.random.default_rng(5)
+    disparity = (rng.random((6, 9)) * 19 - 2).astype(np.float32)
+    disparity[rng.random((6, 9)) < 0.2] = np.nan
+    canvas = np.zeros((8, 9, 4), np.uint8)  # the rows under the map are left alone
+    assert DisparityColours()(disparity, 0, 15, out=canvas[:6]) is not None
+    np.testing.assert_array_equal(canvas[:6], disparity_colours(disparity, 0, 15))
+    assert (canvas[6:] == 0).all()
+
+
+@pytest.mark.parametrize("size", [(64, 96), (63, 96), (64, 90)])
+def test_a_video_drawn_on_the_writer_s_canvas_is_the_one_written_from_arrays(tmp_path,
+                                                                            size):
+    """VideoWriter.canvas: written without a copy where FFmpeg's frame allows it (even
+    sizes, rows not padded), else a plain array; the file is the same bytes either way."""
+    from csw.io.video import VideoWriter
+
+    rng = np.random.default_rng(6)
+    pictures = [rng.integers(0, 256, (*size, 4), np.uint8) for _ in range(3)]
+    drawn, plain = VideoWriter(tmp_path / "drawn.mp4"), VideoWriter(tmp_path / "plain.mp4")
+    canvas = drawn.canvas(*size)
+    for picture in pictures:
+        assert drawn.canvas(*size) is canvas  # one array, drawn again for each frame
+        canvas[:] = picture
+        drawn.write(canvas)
+        plain.write(picture.copy())
+    assert drawn.close() and plain.close()
+    assert (tmp_path / "drawn.mp4").read_bytes() == (tmp_path / "plain.mp4").read_bytes()
+
+
 def test_outputs_must_not_land_on_an_input(tmp_path):
     video = sbs_video(tmp_path / "sbs.avi")
     with pytest.raises(ValueError, match="input"):
