@@ -44,10 +44,12 @@ def row_spans(disp, valid):
 
 
 def neighbourhood(values, reduce):
-    """values (h, w) reduced over each pixel's 3 x 3 neighbourhood (edges repeated)."""
+    """values (h, w) reduced over each pixel's 3 x 3 neighbourhood (edges repeated);
+    reduce: np.minimum or np.maximum.  Three rows, then three columns: a 3 x 3 window
+    view's reduction took 70 ms of a 960 x 540 half-size pass."""
     padded = np.pad(values, 1, mode="edge")
-    windows = np.lib.stride_tricks.sliding_window_view(padded, (3, 3))
-    return reduce(windows, axis=(2, 3))
+    rows = reduce(reduce(padded[:-2], padded[1:-1]), padded[2:])
+    return reduce(reduce(rows[:, :-2], rows[:, 1:-1]), rows[:, 2:])
 
 
 def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
@@ -66,8 +68,8 @@ def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
     offsets = coarse.disparity.astype(np.int64) - dmin // 2
     low, high = row_spans(offsets, valid)
     found = low >= 0
-    low = neighbourhood(np.where(found, low, np.iinfo(np.int32).max), np.min)
-    high = neighbourhood(np.where(found, high, -1), np.max)
+    low = neighbourhood(np.where(found, low, np.iinfo(np.int32).max), np.minimum)
+    high = neighbourhood(np.where(found, high, -1), np.maximum)
     known = low <= high  # none where no row of the neighbourhood had a match
     own = np.where(valid, offsets, np.where(known, (low + high) // 2, 0))
     # Back to full size: pixel (y, x) takes half-size pixel (y // 2, x // 2), the last

@@ -160,3 +160,18 @@ def test_half_size_images_are_block_means():
 
     image = np.array([[0, 2, 9, 9, 7], [1, 1, 9, 8, 7], [5, 5, 5, 5, 5]], np.uint8)
     np.testing.assert_array_equal(narrow.half(image), [[1, 9]])
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 6), (5, 1), (7, 9)])
+def test_the_narrowing_neighbourhood_is_each_pixels_3x3_window(shape):
+    from csw.matching import narrow
+
+    values = np.random.default_rng(sum(shape)).integers(-50, 50, shape)
+    height, width = shape
+    for reduce, plain in ((np.minimum, min), (np.maximum, max)):
+        got = narrow.neighbourhood(values, reduce)
+        for y in range(height):
+            for x in range(width):
+                window = [values[min(max(y + a, 0), height - 1), min(max(x + b, 0), width - 1)]
+                          for a in (-1, 0, 1) for b in (-1, 0, 1)]
+                assert got[y, x] == plain(window)
