@@ -233,7 +233,7 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     one thread at 640x480, d 0..63, against StereoBM with its filters' time):
       camera    50% / 9.9%   0.90x   StereoBM's stages; beats StereoBM on both
       accurate  77% / 7.0%   1.25x   census costs, local windows
-      sgm       92% / 5.1%   ~10x    StereoBM's time on KITTI (the default)
+      sgm       92% / 4.5%   ~9x     StereoBM's time on KITTI (the default)
       raw      100% / 35%    0.68x   no check: every pixel, right or wrong
       StereoBM + filters: 35% / 17.2%, 1.00x
 
