@@ -52,13 +52,19 @@ def neighbourhood(values, reduce):
     return reduce(reduce(rows[:, :-2], rows[:, 1:-1]), rows[:, 2:])
 
 
+def narrows(slots, dmin, dmax):
+    """Whether a search of ``slots`` disparities a pixel narrows dmin..dmax: a range at
+    most that wide is searched whole."""
+    return 0 < slots < dmax - dmin + 1
+
+
 def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
     """The full-size pass's starts, int32 (H, W) in 0..D - slots (kernels.sgm.match_sgm's),
     from a half-size semi-global match of ``left``, ``right`` over half the range, with
     match_options (window, cost, paths, p1, p2, census_window, census_pattern) as the
     full pass's; None where the range is at most ``slots`` wide (nothing to narrow)."""
     ndisp = dmax - dmin + 1
-    if slots >= ndisp or min(left.shape) < 4:
+    if not narrows(slots, dmin, dmax) or min(left.shape) < 4:
         return None
     height, width = left.shape
     coarse = sgm.match_sgm(half(left), half(right), dmin=dmin // 2, dmax=-(-dmax // 2),

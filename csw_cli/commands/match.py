@@ -20,6 +20,7 @@ MATCH_OPTIONS = ["preset", "engine", "cost", "window", "dmin", "dmax", "csw", "c
 def summary_line(result):
     """The one line ``csw match`` prints on stderr about a match."""
     from csw.config.tau import tau_label
+    from csw.matching.narrow import narrows
 
     s = result.settings
     height, width = result.shape
@@ -29,8 +30,7 @@ def summary_line(result):
     engine = f"{s['engine']} engine"
     if s.get("aggregate") == "sgm":
         mode = f"SGM {s['sgm_paths']} paths P1 {s['sgm_p1']} P2 {s['sgm_p2']}"
-        if 0 < s.get("sgm_narrow", 0) < s["dmax"] - s["dmin"] + 1:  # a narrower range
-            # is searched whole (csw.matching.narrow.starts)
+        if narrows(s.get("sgm_narrow", 0), s["dmin"], s["dmax"]):
             mode += f", {s['sgm_narrow']} disparities a pixel after a half-size pass"
         engine = "semi-global"
     stripes = f", {result.stripes} stripe(s)" if result.stripes else ""
