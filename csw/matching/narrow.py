@@ -21,10 +21,14 @@ MARGIN = 2
 
 
 def half(image):
-    """The image at half size, (H // 2, W // 2): means of 2 x 2 blocks, rounded."""
+    """The image at half size, (H // 2, W // 2): means of 2 x 2 blocks, rounded.  Four
+    strided views summed (in a type wide enough for four pixels): a sum over the axes
+    of a (h, 2, w, 2) view took 23 ms of a 1080p image."""
     h, w = image.shape[0] // 2 * 2, image.shape[1] // 2 * 2
-    blocks = image[:h, :w].reshape(h // 2, 2, w // 2, 2).astype(np.uint32)
-    return ((blocks.sum(axis=(1, 3)) + 2) // 4).astype(image.dtype)
+    wide = np.uint16 if image.dtype.itemsize == 1 else np.uint32
+    top, bottom = image[0:h:2].astype(wide), image[1:h:2].astype(wide)
+    total = top[:, 0:w:2] + top[:, 1:w:2] + bottom[:, 0:w:2] + bottom[:, 1:w:2] + 2
+    return (total // 4).astype(image.dtype)
 
 
 def row_spans(disp, valid):
@@ -32,12 +36,13 @@ def row_spans(disp, valid):
     matches left and right of it (their least and greatest; one side if only one has
     any); -1 where its row has none.  disp holds no negatives."""
     h, w = disp.shape
-    cols = np.arange(w)
+    cols = np.arange(w, dtype=np.int32)
     before = np.maximum.accumulate(np.where(valid, cols, -1), axis=1)
     after = np.minimum.accumulate(np.where(valid, cols, w)[:, ::-1], axis=1)[:, ::-1]
-    rows = np.arange(h)[:, None]
-    left = np.where(before >= 0, disp[rows, np.clip(before, 0, w - 1)], -1)
-    right = np.where(after < w, disp[rows, np.clip(after, 0, w - 1)], -1)
+    left = np.take_along_axis(disp, np.maximum(before, 0), axis=1)
+    right = np.take_along_axis(disp, np.minimum(after, w - 1), axis=1)
+    left[before < 0] = -1
+    right[after >= w] = -1
     low = np.where(left < 0, right, np.where(right < 0, left, np.minimum(left, right)))
     high = np.maximum(left, right)
     return low, high
@@ -70,19 +75,15 @@ def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
     coarse = sgm.match_sgm(half(left), half(right), dmin=dmin // 2, dmax=-(-dmax // 2),
                            lr_check=1, threads=threads, **match_options)
     valid = coarse.lr_valid
-    # Offsets from the half range's start (none are negative), int64: no sum wraps.
-    offsets = coarse.disparity.astype(np.int64) - dmin // 2
+    # Offsets from the half range's start: 0 .. about ndisp / 2, so that no sum below
+    # wraps in int32, nor does twice the mark of "none found" (2 * ndisp).
+    offsets = coarse.disparity - np.int32(dmin // 2)
     low, high = row_spans(offsets, valid)
     found = low >= 0
-    low = neighbourhood(np.where(found, low, np.iinfo(np.int32).max), np.minimum)
+    low = neighbourhood(np.where(found, low, np.int32(2 * ndisp)), np.minimum)
     high = neighbourhood(np.where(found, high, -1), np.maximum)
     known = low <= high  # none where no row of the neighbourhood had a match
     own = np.where(valid, offsets, np.where(known, (low + high) // 2, 0))
-    # Back to full size: pixel (y, x) takes half-size pixel (y // 2, x // 2), the last
-    # row and column of an odd size their neighbour's.
-    ys = np.minimum(np.arange(height) // 2, low.shape[0] - 1)
-    xs = np.minimum(np.arange(width) // 2, low.shape[1] - 1)
-    low, high, own, known = (a[ys][:, xs] for a in (low, high, own, known))
     base = 2 * (dmin // 2) - dmin  # full-size offset of the half range's start
     first = 2 * low + base - MARGIN
     last = 2 * high + base + MARGIN
@@ -91,5 +92,10 @@ def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
     on_own = 2 * own + base - slots // 2
     start = np.where(span <= slots, centred, on_own)
     # Where the neighbourhood had no half-size match at all: from the range's start.
-    start = np.where(known, start, 0)
-    return np.clip(start, 0, ndisp - slots).astype(np.int32)
+    start = np.clip(np.where(known, start, 0), 0, ndisp - slots).astype(np.int32)
+    # Back to full size: pixel (y, x) takes half-size pixel (y // 2, x // 2), the last
+    # row and column of an odd size their neighbour's.  Every step above is the half-size
+    # pixel's own, so it is made at half size, a quarter of the pixels.
+    ys = np.minimum(np.arange(height) // 2, start.shape[0] - 1)
+    xs = np.minimum(np.arange(width) // 2, start.shape[1] - 1)
+    return start[ys][:, xs]

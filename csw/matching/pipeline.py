@@ -83,10 +83,10 @@ def penalties(stages, cost, window, dtype):
 
 def confidence_map(min_cost, second, valid):
     """float32 (H, W): (second - best) / second, 0..1; 0 where invalid or no second."""
-    conf = np.zeros(min_cost.shape, np.float32)
     ok = valid & (second > 0)
-    conf[ok] = ((second[ok] - min_cost[ok]) / second[ok]).astype(np.float32)
-    return conf
+    ratio = np.zeros(min_cost.shape, np.float64)
+    np.divide(second - min_cost, second, out=ratio, where=ok)  # as indexing by ok
+    return ratio.astype(np.float32)
 
 
 class CandidateCounts:

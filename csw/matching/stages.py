@@ -96,16 +96,17 @@ def textured(left, window, cap, threshold):
 def subpixel_offset(best, prev, nxt, fit):
     """float64 (H, W) offsets in (-0.5, 0.5] from the costs at d - 1, d, d + 1 (int64, -1
     where unknown); 0 where a neighbour is unknown or the costs are flat."""
-    best, prev, nxt = (a.astype(np.float64) for a in (best, prev, nxt))
+    # Integer arithmetic, exact, then one division in float64: the same quotients as
+    # converting first (every cost is far below 2**53), in fewer passes.
     known = (prev >= 0) & (nxt >= 0)
     if fit == "parabola":
         denominator = prev - 2 * best + nxt
     else:  # linear: the equiangular (V-shaped) fit, suited to SAD-like costs
         denominator = np.maximum(prev, nxt) - best
     ok = known & (denominator > 0)
-    offset = np.zeros_like(best)
-    offset[ok] = (prev[ok] - nxt[ok]) / (2 * denominator[ok])
-    return np.clip(offset, -0.5, 0.5)
+    offset = np.zeros(best.shape, np.float64)
+    np.divide(prev - nxt, 2 * denominator, out=offset, where=ok)
+    return np.clip(offset, -0.5, 0.5, out=offset)
 
 
 # ---------------------------------------------------------------------------- the steps

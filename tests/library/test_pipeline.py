@@ -172,6 +172,20 @@ def test_checks_and_subpixel_equal_the_oracle(seed, engine, cost, fit, lr, ratio
     assert ((confidence >= 0) & (confidence <= 1)).all() and (confidence[~ok] == 0).all()
 
 
+def test_confidence_is_each_valid_pixels_second_best_margin():
+    rng = np.random.default_rng(5)
+    best = rng.integers(-1, 50, (6, 7))
+    second = np.where(rng.random(best.shape) < 0.3, -1, best + rng.integers(0, 9, best.shape))
+    second[0, :3] = 0  # no margin to divide by
+    valid = rng.random(best.shape) < 0.8
+    got = pipeline.confidence_map(best, second, valid)
+    assert got.dtype == np.float32
+    for y, x in np.ndindex(best.shape):
+        ok = valid[y, x] and second[y, x] > 0
+        want = (second[y, x] - best[y, x]) / second[y, x] if ok else 0.0
+        assert got[y, x] == np.float32(want)
+
+
 def test_fill_leaves_nothing_invalid_and_presets(small_scene):
     left, right, _, _ = small_scene
     filled = csw.match(left, right, dmax=16, preset="accurate", fill="background")

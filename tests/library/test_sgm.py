@@ -162,6 +162,23 @@ def test_half_size_images_are_block_means():
     np.testing.assert_array_equal(narrow.half(image), [[1, 9]])
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_half_size_images_round_each_block_and_keep_their_type(dtype):
+    """Every 2 x 2 block's mean, rounded half up, at the type's top too (four of its
+    largest values sum beyond it)."""
+    from csw.matching import narrow
+
+    top = np.iinfo(dtype).max
+    rng = np.random.default_rng(3)
+    image = rng.integers(top - 3, top + 1, (7, 9)).astype(dtype)
+    image[:2, :4] = rng.integers(0, top + 1, (2, 4))
+    got = narrow.half(image)
+    assert got.dtype == dtype and got.shape == (3, 4)
+    for y, x in np.ndindex(got.shape):
+        block = image[2 * y:2 * y + 2, 2 * x:2 * x + 2].astype(int)
+        assert got[y, x] == (block.sum() + 2) // 4
+
+
 @pytest.mark.parametrize("shape", [(1, 1), (1, 6), (5, 1), (7, 9)])
 def test_the_narrowing_neighbourhood_is_each_pixels_3x3_window(shape):
     from csw.matching import narrow
