@@ -22,8 +22,8 @@ MARGIN = 2
 
 def half(image):
     """The image at half size, (H // 2, W // 2): means of 2 x 2 blocks, rounded.  Four
-    strided views summed (in a type wide enough for four pixels): a sum over the axes
-    of a (h, 2, w, 2) view took 23 ms of a 1080p image."""
+    strided views added in a type wide enough for four pixels: numpy's sum over two
+    axes of a (h, 2, w, 2) view is a slow reduction, and this runs on every match."""
     h, w = image.shape[0] // 2 * 2, image.shape[1] // 2 * 2
     wide = np.uint16 if image.dtype.itemsize == 1 else np.uint32
     top, bottom = image[0:h:2].astype(wide), image[1:h:2].astype(wide)
