@@ -1,6 +1,7 @@
 """The ``csw`` command group: a thin group, one module per command in commands/, each
 imported only when it runs (a command's imports are what its start-up costs)."""
 
+import functools
 import importlib
 import os
 import signal
@@ -90,16 +91,41 @@ class Stopped(KeyboardInterrupt):
 
 
 SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP")
+_ARMED = set()  # the signals stop_on_signals handles (the others stay ignored)
 
 
 def _stop(signum, frame):
-    if frame is not None and "llvmlite" in frame.f_code.co_filename:
-        # Inside a callback from compiled code (llvmlite's object cache), an exception
-        # is printed and dropped: deliver the signal again a moment later, outside it.
+    if _under_llvmlite(frame):
+        # Inside compiled code's callback (llvmlite's object cache, Numba's hooks under
+        # it), an exception would cut the hook short and be dropped: deliver the signal
+        # again a moment later, outside it.
         threading.Timer(0.05, os.kill, (os.getpid(), signum)).start()
         return
     _hold_through_clean_up()
     raise Stopped(signum)
+
+
+def _under_llvmlite(frame):
+    while frame is not None:
+        if "llvmlite" in frame.f_code.co_filename:
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _dropped(unraisable, previous):
+    """sys.unraisablehook while the handlers are armed.  A Stopped raised where Python
+    drops exceptions (a __del__, a weakref or ctypes callback) stopped nothing, yet the
+    handlers now ignore every signal: arm them again and deliver the signal once more, a
+    moment later, so the run stops, and no traceback is printed.  Anything else goes to
+    the hook that was there before."""
+    stopped = unraisable.exc_value
+    if not isinstance(stopped, Stopped) or \
+            threading.current_thread() is not threading.main_thread():
+        return previous(unraisable)
+    for number in _ARMED:
+        signal.signal(number, _stop)
+    threading.Timer(0.05, os.kill, (os.getpid(), stopped.signum)).start()
 
 
 def _hold_through_clean_up():
@@ -124,6 +150,9 @@ def stop_on_signals():
         number = getattr(signal, name, None)
         if number is not None and signal.getsignal(number) != signal.SIG_IGN:
             signal.signal(number, _stop)
+            _ARMED.add(number)
+    if _ARMED and getattr(sys.unraisablehook, "func", None) is not _dropped:
+        sys.unraisablehook = functools.partial(_dropped, previous=sys.unraisablehook)
 
 
 def _quiet_stdout():

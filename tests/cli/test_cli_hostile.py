@@ -311,6 +311,47 @@ def test_a_second_signal_during_clean_up_changes_nothing(tmp_path):
     assert (tmp_path / "summary.json").read_text() == "the summary"
 
 
+DROPPED = """
+import ctypes, os, signal, sys, time
+from csw_cli import main
+main.stop_on_signals()
+
+def send():  # the handler runs at the next bytecode: inside whatever called send
+    os.kill(os.getpid(), signal.SIGTERM)
+    sum(range(10**5))
+
+class Finalised:
+    def __del__(self):
+        send()
+
+try:
+    if sys.argv[1] == "__del__":
+        Finalised()
+    else:
+        ctypes.CFUNCTYPE(None)(send)()
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        sum(range(1000))
+    print("still running", file=sys.stderr)
+except KeyboardInterrupt as exc:
+    main._interrupted(getattr(exc, "signum", signal.SIGINT))
+"""
+
+
+@pytest.mark.parametrize("where", ["__del__", "a ctypes callback"])
+def test_a_signal_that_lands_where_python_drops_exceptions_still_stops_the_run(where):
+    """Python prints and drops an exception raised in a __del__ or a callback from C
+    (Numba's object cache hooks are one), so the first handling of the signal stops
+    nothing; the run must still stop, quietly, with the signal's exit code."""
+    from child import default_signals
+
+    out = subprocess.run([sys.executable, "-c", DROPPED, where], preexec_fn=default_signals,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 128 + signal.SIGTERM, out.stderr
+    assert out.stderr.strip().splitlines() == \
+        ["csw: stopped by SIGTERM; no partial file was left"]
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
 def test_sigterm_and_sighup_behave_like_ctrl_c(tmp_path, signum):
