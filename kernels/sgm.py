@@ -80,10 +80,10 @@ def memory(height, width, ndisp, window, paths, threads, band_bytes=None, slots=
         bands, rows = band_plan(height, width, slots, 8, state / width / slots,
                                 band_bytes, single)
         kept = 0 if single else (len(bands) - 1) * down * state
-        # Each thread's cost scratch: column sums, the ring and a row's costs, of the
-        # whole range.
-        return rows * width * slots * 8 + states * state + kept + \
-            threads * (width + window) * ndisp * (8 + window) + height * width * 4
+        # Each thread's cost scratch, of the whole range: column sums, and the ring, or
+        # with a window of 1 a row's costs.
+        return rows * width * slots * 8 + states * state + kept + height * width * 4 + \
+            threads * (width + window) * ndisp * (4 + (4 if window == 1 else window))
     state = width * (ndisp + 2) * 4
     bands, rows = band_plan(height, width, ndisp, 8, down * state / width / ndisp,
                             band_bytes, single)
@@ -105,6 +105,11 @@ SINGLE_PASS_BAND_BYTES = 64 << 20
 # Bands are at least this tall where the pair is cut (each band's steps are calls of
 # their own, a few tens of microseconds each).
 MIN_BAND_ROWS = 32
+
+# A narrowed search's costs are made in tiles of this many rows (kernels/jit/sgm.py,
+# cost_rows): each column's sums cover the slots its pixels search in the tile.  Taller
+# tiles widen those spans; shorter ones sum the window's first rows more often.
+TILE_ROWS = 16
 
 
 def band_rows(height, width, ndisp, itemsize, kept_itemsize, band_bytes=None,
@@ -268,7 +273,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     dummy2 = np.empty((1, 1), acc)
     base = dict(left_p=left_p, right_rev=right_rev, costs=costs, sums=sums,
                 col_sums=dummy2, row_sums=np.empty(1, acc), ring=np.empty((1, 1, 1), np.uint8),
-                row_costs=np.empty((1, 1), costs.dtype),
+                row_costs=np.empty((1, 1), costs.dtype), spans=np.empty((2, 1), np.int32),
                 state=dummy3, mins=dummy2,
                 other=dummy3, other_mins=dummy2, line=dummy2,
                 right_best=np.empty(1, acc), right_d=np.empty(1, np.int16),
@@ -276,7 +281,8 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                 right_disp=maps[3], lr_valid=lr_valid, window=s.window, dmin=s.dmin,
                 p1=p1, p2=p2, cmax=cmax, never=never, y0=0, y1=0, band_y0=0, x0=0, x1=0,
                 direction=1, add=0, extras=int(s.extras), keep_right=int(s.right_map),
-                lr_limit=s.lr_check, keyed=int(keyed_range() > 0), starts=starts)
+                lr_limit=s.lr_check, keyed=int(keyed_range() > 0), starts=starts,
+                tile_rows=TILE_ROWS)
     right_width = width + shift
     work_per_row = width * ndisp * 8
 
@@ -302,7 +308,9 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
             else (1, 1, 1)
         return dict(col_sums=np.empty((left_p.shape[1], full), acc),
                     row_sums=np.empty(full, acc), ring=np.empty(ring, np.uint8),
-                    row_costs=np.empty((width, full) if banded else (1, 1), costs.dtype))
+                    row_costs=np.empty((width, full) if banded and s.window == 1 else (1, 1),
+                                       costs.dtype),
+                    spans=np.empty((2, left_p.shape[1]), np.int32))
 
     def select_scratch():
         line = np.full((2, ndisp + 2 * pad), big, acc)

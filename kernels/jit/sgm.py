@@ -51,7 +51,7 @@ AHEAD = 4
 
 SC = scalar_index(("step", "window", "dmin", "p1", "p2", "cmax", "never", "y0", "y1",
                    "band_y0", "x0", "x1", "direction", "add", "extras", "keep_right",
-                   "lr_limit", "keyed"))
+                   "lr_limit", "keyed", "tile_rows"))
 
 
 
@@ -68,6 +68,7 @@ def spec(cost, pixels, costs, accumulator, negative=False, banded=False):
               arg("col_sums", acc, 2), arg("row_sums", acc, 1),  # (Wp, D), (D,) scratch
               arg("ring", u8, 3),  # (w, Wp, D) scratch for "shd", else (1, 1, 1)
               arg("row_costs", cst, 2),  # (W, D) a banded variant's scratch, else (1, 1)
+              arg("spans", i32, 2),  # (2, Wp) scratch: each column's k (cost_rows)
               arg("state", acc, 3), arg("mins", acc, 2),  # (2, W, D + 2), (2, W)
               arg("other", acc, 3), arg("other_mins", acc, 2),  # a diagonal's partner
               arg("line", acc, 2),  # (2, D + 2) a horizontal path's scratch
@@ -109,46 +110,85 @@ def _make(cost, cost_type, acc, negative, banded):
     ringed = cost == "shd"
 
     @njit(**SERIAL)
-    def column_add(left, right_rev, sums, dmin, kept):
-        """sums[j, k] += psi(left[j], right[j - d]) for d = dmin + k <= j, over the
-        padded columns j; a ringed variant keeps the costs in kept, uint8 (Wp, D)."""
-        wp, ndisp = sums.shape
+    def column_add(left, right_rev, sums, dmin, kept, spans):
+        """sums[j, k] += psi(left[j], right[j - d]) for d = dmin + k, k in spans[0, j] ..
+        spans[1, j] - 1 (at most the candidates, d <= j), over the padded columns j; a
+        ringed variant keeps the costs in kept, uint8 (Wp, D).  The loops index views
+        that start at the span, from 0: an index from an array may be negative for all
+        Numba knows, and its wraparound test per access cost 1.5x the whole search."""
+        wp = sums.shape[0]
         wr = right_rev.shape[0]
         for j in range(max(dmin, 0), wp):
-            s = sums[j]
+            lo, count = spans[0, j], spans[1, j] - spans[0, j]
+            s = sums[j, lo:]
             lv = left[j]
-            r = right_rev[wr - 1 - j + dmin:]
+            r = right_rev[wr - 1 - j + dmin + lo:]
             if ringed:
-                row = kept[j]
-                for k in range(min(ndisp, j - dmin + 1)):
+                row = kept[j, lo:]
+                for k in range(count):
                     c = np.uint8(psi(lv, r[k]))
                     s[k] = s[k] + c
                     row[k] = c
             else:
-                for k in range(min(ndisp, j - dmin + 1)):
+                for k in range(count):
                     s[k] = s[k] + psi(lv, r[k])
 
     @njit(**SERIAL)
-    def column_move(left, right_rev, left_sub, right_sub_rev, sums, dmin, kept):
+    def column_move(left, right_rev, left_sub, right_sub_rev, sums, dmin, kept, spans):
         """As column_add for the entering rows, less the leaving (_sub) ones' costs (from
         kept, where the entering row's then go, in a ringed variant), in one pass; exact
         modulo the accumulator's width."""
-        wp, ndisp = sums.shape
+        wp = sums.shape[0]
         wr = right_rev.shape[0]
         for j in range(max(dmin, 0), wp):
-            s = sums[j]
+            lo, count = spans[0, j], spans[1, j] - spans[0, j]
+            s = sums[j, lo:]
             lv, lv_sub = left[j], left_sub[j]
-            base = wr - 1 - j + dmin
+            base = wr - 1 - j + dmin + lo
             r, r_sub = right_rev[base:], right_sub_rev[base:]
             if ringed:
-                row = kept[j]
-                for k in range(min(ndisp, j - dmin + 1)):
+                row = kept[j, lo:]
+                for k in range(count):
                     c = np.uint8(psi(lv, r[k]))
                     s[k] = s[k] + c - row[k]
                     row[k] = c
             else:
-                for k in range(min(ndisp, j - dmin + 1)):
+                for k in range(count):
                     s[k] = s[k] + psi(lv, r[k]) - psi(lv_sub, r_sub[k])
+
+    @njit(**SERIAL)
+    def whole_spans(spans, dmin, ndisp):
+        """Every column's candidates: k < ndisp and d = dmin + k <= j."""
+        for j in range(spans.shape[1]):
+            spans[0, j] = 0
+            spans[1, j] = max(min(ndisp, j - dmin + 1), 0)
+
+    @njit(**SERIAL)
+    def tile_spans(starts, t0, t1, slots, w, dmin, ndisp, spans):
+        """A banded variant's column spans over image rows t0 <= y < t1: padded column j
+        is in the windows of pixels x = j - w + 1 .. j, so its sums are needed from the
+        least of their starts to the greatest start + slots (exclusive), candidates
+        only (d <= j).  starts: int32 (H, W); spans: int32 (2, Wp) out."""
+        width = starts.shape[1]
+        low, high = spans[0], spans[1]
+        for x in range(width):
+            low[x] = starts[t0, x]
+            high[x] = starts[t0, x]
+        for y in range(t0 + 1, t1):
+            row = starts[y]
+            for x in range(width):
+                low[x] = min(low[x], row[x])
+                high[x] = max(high[x], row[x])
+        # From the right, so that column j reads only pixels' entries (x <= j) not yet
+        # overwritten by a column's.
+        for j in range(spans.shape[1] - 1, -1, -1):
+            a, b = max(j - w + 1, 0), min(j, width - 1)
+            least, most = low[a], high[a]
+            for x in range(a + 1, b + 1):
+                least = min(least, low[x])
+                most = max(most, high[x])
+            low[j] = least
+            high[j] = max(min(most + slots, ndisp, j - dmin + 1), least)
 
     @njit(**SERIAL)
     def gather(row, out, row_starts):
@@ -162,17 +202,63 @@ def _make(cost, cost_type, acc, negative, banded):
                 target[k] = source[k]
 
     @njit(**SERIAL)
-    def cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, row_costs, starts,
-                  sc, stop):
+    def band_row(col_sums, row_sums, out, row_starts, w, dmin, cmax):
+        """A banded variant's slab row from the column sums: out[x, k] = C(y, x, dmin +
+        row_starts[x] + k), the sum of the window's w columns, or slid from pixel x - 1's
+        where that searched the same slots (two columns' work for w).  Columns' sums
+        outside their spans hold stale values: they reach only slots that are not
+        candidates (cmax), or cancel exactly in a slide (the same value added at x - 1
+        and subtracted at x)."""
+        width, slots = out.shape
+        ndisp = col_sums.shape[1]
+        previous = -1
+        for x in range(width):
+            start = row_starts[x]
+            if start == previous:
+                add = col_sums[x + w - 1, start:]
+                sub = col_sums[x - 1, start:]
+                for k in range(slots):
+                    row_sums[k] = row_sums[k] + add[k] - sub[k]
+            else:
+                first = col_sums[x, start:]
+                for k in range(slots):
+                    row_sums[k] = first[k]
+                for b in range(1, w):
+                    column = col_sums[x + b, start:]
+                    for k in range(slots):
+                        row_sums[k] = row_sums[k] + column[k]
+                previous = start
+            # Candidates: d <= x and x - d <= width - 1, the slots head..tail - 1.
+            n = max(min(ndisp, x - dmin + 1), 0)
+            lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
+            head = min(max(lo - start, 0), slots)
+            tail = min(max(n - start, head), slots)
+            c = out[x]
+            for k in range(head):
+                c[k] = cmax
+            # Views from the first candidate, indexed from 0: an index that Numba can't
+            # prove non-negative is tested for wraparound at every access.
+            source, target = row_sums[head:], c[head:]
+            for k in range(tail - head):
+                target[k] = cost_type(source[k])
+            beyond = c[tail:]
+            for k in range(slots - tail):
+                beyond[k] = cmax
+
+    @njit(**SERIAL)
+    def cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, row_costs, spans,
+                  starts, sc, stop):
         """costs[y - band_y0, x, k] = C(y, x, dmin + k) for rows y0 <= y < y1: column
         sums moved down the rows, row sums slid along each row (kernels/jit/fast.py).
-        A banded variant makes each row's costs over the whole range in row_costs, (W,
-        D), and gathers each pixel's slots from there: sliding sums need every d of
-        a column, and the pixels beside it search others."""
+        A banded variant with a window works in tiles of rows (sc[tile_rows]): each
+        column's sums cover only the slots its pixels search in the tile (tile_spans),
+        and each pixel sums its own slots (band_row).  With a window of 1 it makes each
+        row's costs over the whole range in row_costs, (W, D), and gathers each pixel's
+        slots from there."""
         w, dmin, cmax = sc[SC.window], sc[SC.dmin], cost_type(sc[SC.cmax])
         y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
         width = costs.shape[1]
-        ndisp = row_costs.shape[1] if banded else costs.shape[2]
+        ndisp = col_sums.shape[1]
         if w == 1:  # each pixel's own cost: no sums to move
             wr = right_rev.shape[1]
             for y in range(y0, y1):
@@ -195,38 +281,50 @@ def _make(cost, cost_type, acc, negative, banded):
                 if banded:
                     gather(out, costs[y - band_y0], starts[y])
             return 0
-        col_sums[:] = 0
-        for a in range(w):
-            column_add(left_p[y0 + a], right_rev[y0 + a], col_sums, dmin,
-                       ring[(y0 + a) % w if ringed else 0])
-        for y in range(y0, y1):
-            if stop_requested(stop):
-                return 0
-            if y > y0:
-                # Row y + w - 1 enters, row y - 1 leaves: one slot of the ring.
-                column_move(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
-                            right_rev[y - 1], col_sums, dmin,
-                            ring[(y - 1) % w if ringed else 0])
-            row_sums[:] = 0
-            for b in range(w - 1):
-                s = col_sums[b]
-                for k in range(ndisp):
-                    row_sums[k] = row_sums[k] + s[k]
-            out = row_costs if banded else costs[y - band_y0]
-            for x in range(width):
-                add = col_sums[x + w - 1]
-                sub = col_sums[x - 1] if x > 0 else col_sums[0]
-                c = out[x]
-                # Candidates: d <= x and x - d <= width - 1 (k in lo..n - 1).
-                n = max(min(ndisp, x - dmin + 1), 0)
-                lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
-                keep = 1 if x > 0 else 0  # column 0 is not yet in the sums at x = 0
-                for k in range(ndisp):
-                    v = acc(row_sums[k] + add[k] - sub[k] * keep)
-                    row_sums[k] = v
-                    c[k] = cost_type(v) if lo <= k < n else cmax
+        tile = sc[SC.tile_rows] if banded else max(y1 - y0, 1)
+        if not banded:
+            whole_spans(spans, dmin, ndisp)
+        for t0 in range(y0, y1, tile):
+            t1 = min(t0 + tile, y1)
             if banded:
-                gather(out, costs[y - band_y0], starts[y])
+                tile_spans(starts, t0, t1, costs.shape[2], w, dmin, ndisp, spans)
+            for j in range(col_sums.shape[0]):
+                s = col_sums[j, spans[0, j]:]
+                for k in range(spans[1, j] - spans[0, j]):
+                    s[k] = 0
+            for a in range(w):
+                column_add(left_p[t0 + a], right_rev[t0 + a], col_sums, dmin,
+                           ring[(t0 + a) % w if ringed else 0], spans)
+            for y in range(t0, t1):
+                if stop_requested(stop):
+                    return 0
+                if y > t0:
+                    # Row y + w - 1 enters, row y - 1 leaves: one slot of the ring.
+                    column_move(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
+                                right_rev[y - 1], col_sums, dmin,
+                                ring[(y - 1) % w if ringed else 0], spans)
+                if banded:
+                    band_row(col_sums, row_sums, costs[y - band_y0], starts[y], w, dmin,
+                             cmax)
+                    continue
+                row_sums[:] = 0
+                for b in range(w - 1):
+                    s = col_sums[b]
+                    for k in range(ndisp):
+                        row_sums[k] = row_sums[k] + s[k]
+                out = costs[y - band_y0]
+                for x in range(width):
+                    add = col_sums[x + w - 1]
+                    sub = col_sums[x - 1] if x > 0 else col_sums[0]
+                    c = out[x]
+                    # Candidates: d <= x and x - d <= width - 1 (k in lo..n - 1).
+                    n = max(min(ndisp, x - dmin + 1), 0)
+                    lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
+                    keep = 1 if x > 0 else 0  # column 0 is not yet in the sums at x = 0
+                    for k in range(ndisp):
+                        v = acc(row_sums[k] + add[k] - sub[k] * keep)
+                        row_sums[k] = v
+                        c[k] = cost_type(v) if lo <= k < n else cmax
         return 0
 
     @njit(**SERIAL)
@@ -536,13 +634,13 @@ def _make(cost, cost_type, acc, negative, banded):
         return 0
 
     @njit(**SERIAL)
-    def worker(left_p, right_rev, costs, sums, col_sums, row_sums, ring, row_costs, state,
-               mins, other, other_mins, line, right_best, right_d, disp, min_cost, second, prev,
-               nxt, right_disp, lr_valid, starts, stop, sc):
+    def worker(left_p, right_rev, costs, sums, col_sums, row_sums, ring, row_costs, spans,
+               state, mins, other, other_mins, line, right_best, right_d, disp, min_cost,
+               second, prev, nxt, right_disp, lr_valid, starts, stop, sc):
         step = sc[SC.step]
         if step == COSTS:
             return cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, row_costs,
-                             starts, sc, stop)
+                             spans, starts, sc, stop)
         if step == VERTICAL:
             return vertical(costs, sums, state, mins, starts, sc, stop)
         if step == DIAGONAL:

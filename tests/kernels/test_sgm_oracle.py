@@ -116,6 +116,25 @@ def test_narrowed_search_bands_and_threads_change_nothing(threads):
         assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
 
 
+@pytest.mark.parametrize("window", [3, 5])
+def test_narrowed_costs_in_tiles_of_rows_change_nothing(monkeypatch, window):
+    """A narrowed search sums each column over the slots its pixels search in a tile of
+    rows (sgm.TILE_ROWS): tiles of 1, 2 and 5 rows, and one tile, on every cost, bands
+    and threads, all meet the oracle."""
+    rng = np.random.default_rng(window + 50)
+    left, right = pair(rng, 13, 19)
+    for tile in (1, 2, 5, 16):
+        monkeypatch.setattr(sgm, "TILE_ROWS", tile)
+        for cost, dmin, dmax, slots, threads in [("census", 0, 11, 4, 1), ("sad", -3, 8, 5, 2),
+                                                 ("ssd", 2, 13, 3, 1), ("shd", 0, 9, 6, 2)]:
+            starts = random_starts(rng, left.shape, dmax - dmin + 1, slots)
+            p1, p2 = sgm.default_penalties(cost, window, 8)
+            assert_equals_oracle(left, right, window=window, dmin=dmin, dmax=dmax, cost=cost,
+                                 paths=4, p1=p1, p2=p2, starts=starts, slots=slots,
+                                 threads=threads,
+                                 band_bytes=one_row_bands(left, 0, slots) * 3 + 1)
+
+
 def test_narrowed_search_of_every_slot_is_the_whole_search():
     rng = np.random.default_rng(3)
     left, right = pair(rng, 8, 13)
