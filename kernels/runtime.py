@@ -81,7 +81,7 @@ def _pool(size):
     return _POOLS[key]
 
 
-def run_stripes(task, count, threads, work):
+def run_stripes(task, count, threads, work, direct_work=DIRECT_WORK):
     """Run ``task(i, stop)`` for i in range(count) (stripe i of a run), ``threads`` at a
     time, and return their results in order.
 
@@ -89,11 +89,11 @@ def run_stripes(task, count, threads, work):
     Ctrl-C only in the main thread and between bytecodes, never inside an entry, so the
     stripes run in the pool's threads while this thread waits: on a Ctrl-C it sets the
     flag, the stripes return within a row, and the interrupt is raised again here.
-    work: the run's size; a run under DIRECT_WORK runs in the calling thread, as does a
+    work: the run's size; a run under direct_work runs in the calling thread, as does a
     run on one thread asked for from a thread other than the main one.
     """
     stop = new_stop_flag()
-    if work < DIRECT_WORK or (threads == 1 and
+    if work < direct_work or (threads == 1 and
                               threading.current_thread() is not threading.main_thread()):
         # One thread asked for by a thread that is not the main one (a stream's frames
         # side by side): run here, since the frames would otherwise queue for the one

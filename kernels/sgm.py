@@ -111,6 +111,12 @@ MIN_BAND_ROWS = 32
 # tiles widen those spans; shorter ones sum the window's first rows more often.
 TILE_ROWS = 16
 
+# A step of a band (its costs, a vertical path, its rows' paths and winners) is split
+# between the threads from this much work (runtime.DIRECT_WORK's units: about 1 ms),
+# where other runs take 10 ms: handing stripes to the pool costs about 0.13 ms, and a
+# 1080p pair's narrowed bands' steps, 5-8 ms each, ran in one thread of two.
+STEP_DIRECT_WORK = runtime.DIRECT_WORK // 10
+
 
 def band_rows(height, width, ndisp, itemsize, kept_itemsize, band_bytes=None,
               single_pass=False):
@@ -290,7 +296,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         """A step over the band's rows y0..y1, its rows split between the threads."""
         count = min(n_threads, y1 - y0)
         work = (y1 - y0) * work_per_row
-        if work < runtime.DIRECT_WORK:
+        if work < STEP_DIRECT_WORK:
             count = 1
         edges = y0 + runtime.even_split(y1 - y0, count)
 
@@ -298,11 +304,12 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
             return run(**dict(base, **scratch(), step=step, y0=int(edges[i]),
                               y1=int(edges[i + 1]), band_y0=y0, stop=stop))
 
-        runtime.run_stripes(stripe, count, count, work)
+        runtime.run_stripes(stripe, count, count, work, STEP_DIRECT_WORK)
 
     def cost_scratch():
         # Hamming costs' ring of the window's rows (kernels/jit/sgm.py): w x Wp x D bytes;
-        # a banded match slides its sums over the whole range, a row at a time.
+        # a banded match's column sums and ring are indexed by the whole range's d, each
+        # column's span of them used.
         full = whole if banded else ndisp
         ring = (s.window, left_p.shape[1], full) if s.cost == SHD and s.window > 1 \
             else (1, 1, 1)
@@ -320,7 +327,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     def vertical(y0, y1, state, mins, direction, add):
         count = min(n_threads, width)
         work = (y1 - y0) * work_per_row
-        if work < runtime.DIRECT_WORK:
+        if work < STEP_DIRECT_WORK:
             count = 1
         edges = runtime.even_split(width, count)
 
@@ -329,7 +336,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                               band_y0=y0, x0=int(edges[i]), x1=int(edges[i + 1]),
                               direction=direction, add=add, stop=stop))
 
-        runtime.run_stripes(stripe, count, count, work)
+        runtime.run_stripes(stripe, count, count, work, STEP_DIRECT_WORK)
 
     def diagonal(y0, y1, pair, direction, add):
         (state, mins), (other, other_mins) = pair

@@ -57,8 +57,10 @@ def test_every_cost_window_and_path_count(cost, window, paths):
 
 @pytest.mark.parametrize("paths", [4, 5, 8])
 @pytest.mark.parametrize("threads", [1, 2])
-def test_bands_and_threads_change_nothing(paths, threads):
-    """Bands of one, two and all rows, one thread or two: the same sums, bit for bit."""
+def test_bands_and_threads_change_nothing(paths, threads, monkeypatch):
+    """Bands of one, two and all rows, one thread or two: the same sums, bit for bit.
+    Every step is split between the threads, however small (sgm.STEP_DIRECT_WORK)."""
+    monkeypatch.setattr(sgm, "STEP_DIRECT_WORK", 0)
     rng = np.random.default_rng(paths + threads)
     left, right = pair(rng, 11, 16)
     kw = dict(window=3, dmin=0, dmax=6, cost="sad", paths=paths, p1=40, p2=300)
@@ -105,7 +107,8 @@ def test_narrowed_search_every_cost_window_and_path_count(cost, window, paths):
 
 
 @pytest.mark.parametrize("threads", [1, 2])
-def test_narrowed_search_bands_and_threads_change_nothing(threads):
+def test_narrowed_search_bands_and_threads_change_nothing(threads, monkeypatch):
+    monkeypatch.setattr(sgm, "STEP_DIRECT_WORK", 0)
     rng = np.random.default_rng(threads + 40)
     left, right = pair(rng, 11, 16)
     starts = random_starts(rng, left.shape, 10, 4)
@@ -121,6 +124,7 @@ def test_narrowed_costs_in_tiles_of_rows_change_nothing(monkeypatch, window):
     """A narrowed search sums each column over the slots its pixels search in a tile of
     rows (sgm.TILE_ROWS): tiles of 1, 2 and 5 rows, and one tile, on every cost, bands
     and threads, all meet the oracle."""
+    monkeypatch.setattr(sgm, "STEP_DIRECT_WORK", 0)
     rng = np.random.default_rng(window + 50)
     left, right = pair(rng, 13, 19)
     for tile in (1, 2, 5, 16):
