@@ -1,12 +1,16 @@
 """Compiling a kernel entry: a C-callable wrapper around a worker, compiled by Numba, and
 its machine code as an object file (see kernels/native.py)."""
 
+import contextlib
+import threading
+
+import llvmlite.binding as llvm
 import numba
 import numpy as np
 from numba import carray, cfunc, types
 
 from ..catalogue import spec_of
-from .options import ENTRY
+from .options import ENTRY, LLVM_OPTIONS
 
 # The Numba helpers a stored entry may call: the GIL's, which the loader provides, and
 # those only its error path calls, which the loader records as a failure (the workers
@@ -42,12 +46,32 @@ def _compiled(kernel, variant):
     return spec, compile_spec(spec, f"{kernel} {variant}")
 
 
+_options_lock = threading.Lock()
+
+
+@contextlib.contextmanager
+def csw_llvm_options():
+    """LLVM_OPTIONS set while the block compiles, LLVM's defaults again after it: the
+    options are the process's, and a notebook's own Numba functions compiled later keep
+    LLVM's choices.  (A compile in another thread meanwhile would see csw's.)"""
+    with _options_lock:
+        for option, (ours, _) in LLVM_OPTIONS.items():
+            llvm.set_option("csw", f"-{option}={ours}")
+        try:
+            yield
+        finally:
+            for option, (_, default) in LLVM_OPTIONS.items():
+                llvm.set_option("csw", f"-{option}={default}")
+
+
 def compile_spec(spec, name):
-    """The C-callable entry of a Spec, compiled by Numba (a cfunc)."""
+    """The C-callable entry of a Spec, compiled by Numba (a cfunc), with csw's LLVM
+    options (its machine code is made then: the cfunc is compiled when made)."""
     namespace = {"carray": carray, "np": np, "worker": spec.worker}
     namespace.update({f"T{i}": a.dtype.type for i, a in enumerate(spec.signature.arrays)})
     exec(compile(wrapper_source(spec), f"<csw kernel {name}>", "exec"), namespace)
-    return cfunc(SIGNATURE, **ENTRY)(namespace["entry"])
+    with csw_llvm_options():
+        return cfunc(SIGNATURE, **ENTRY)(namespace["entry"])
 
 
 def compile_entry(kernel, variant):
