@@ -9,6 +9,12 @@ stores each compiled entry itself (kernels/native.py), and loads it without Numb
 # is integer arithmetic and results must be exact.
 SERIAL = dict(nogil=True, error_model="numpy")
 
+# Helpers called once per pixel or column from a worker's inner loops: inlined by Numba
+# where they are called.  Left to LLVM, a helper taking array views stays a call whose
+# views' fields pass through memory: a semi-global path step over 64 values took 28 ns
+# as a call and 10 ns inlined (jit/sgm.py's helpers; the filters' measured no change).
+INLINE = dict(SERIAL, inline="always")
+
 # LLVM's options while csw compiles its entries (jit/build.py sets them for the compile
 # alone).  Left to itself, LLVM's loop vectorizer makes each iteration of a loop's
 # vector body 4 vectors, 128 16-bit lanes with AVX-512: a loop over 32 or 64

@@ -41,7 +41,7 @@ from numba import njit
 
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import ctpop, dtype_of, keep_or_take, lr_agrees, prefetch, stop_requested
-from .options import SERIAL
+from .options import INLINE, SERIAL
 
 COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3
 # Pixels ahead that the path from the right asks the caches for (it walks memory
@@ -327,7 +327,7 @@ def _make(cost, cost_type, acc, negative, banded):
                         c[k] = cost_type(v) if lo <= k < n else cmax
         return 0
 
-    @njit(**SERIAL)
+    @njit(**INLINE)
     def path_step(before, least, cost, after, p1, p2, never):
         """after[1 + k] = L(p, k) from before (L(p - r) with its sentinels) and its
         minimum ``least``; returns min_k L(p, k).  before, after: (D + 2,); cost: (D,);
@@ -342,7 +342,7 @@ def _make(cost, cost_type, acc, negative, banded):
             best = min(best, value)
         return best
 
-    @njit(**SERIAL)
+    @njit(**INLINE)
     def path_step_into(before, least, cost, after, sums, add, p1, p2, never):
         """path_step, the values also added into sums, (D,) (add 1), or written there
         (add 0), in the same pass (add 2: path_step)."""
@@ -360,7 +360,7 @@ def _make(cost, cost_type, acc, negative, banded):
             sums[k] = acc(sums[k] * keep + value)
         return best
 
-    @njit(**SERIAL)
+    @njit(**INLINE)
     def pad_of(slots):
         """The sentinels each side of a path state's ``slots`` values (see above; the
         driver's kernels/sgm.py:pad_of)."""
@@ -372,14 +372,14 @@ def _make(cost, cost_type, acc, negative, banded):
         for k in range(pad, state.shape[0] - pad):
             state[k] = 0
 
-    @njit(**SERIAL)
+    @njit(**INLINE)
     def shifted(state, shift, slots, pad):
         """The view of a path state whose [1 + k] holds slot k + shift (a sentinel where
         that is not a slot): path_step's ``before``; shift 0, ``after``."""
         shift = max(min(shift, slots + 1), -(slots + 1))
         return state[pad - 1 + shift:pad + slots + 1 + shift]
 
-    @njit(**SERIAL)
+    @njit(**INLINE)
     def path_start(cost, after, never):
         """A path's first pixel: after[1 + k] = C(p, k); returns its minimum."""
         best = never
@@ -388,7 +388,7 @@ def _make(cost, cost_type, acc, negative, banded):
             best = min(best, cost[k])
         return best
 
-    @njit(**SERIAL)
+    @njit(**INLINE)
     def add_into(sums, after, add):
         """sums[k] (+)= after[1 + k]: the first path of a band's pass assigns."""
         if add:
