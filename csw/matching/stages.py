@@ -19,6 +19,7 @@ from ..kernels.filters import (
     fill_background,
     median_valid,
     speckle_mask,
+    subpixel,
     winners_consistent,
 )
 
@@ -37,7 +38,8 @@ class Stage:
     options: the option names it owns (csw.config.params.OPTIONS has their help).
     kind: where its step runs: "images" (on the pair, before the costs), "costs" (the
         kernels apply it: no step here), "check" (a validity mask from the kernels'
-        maps), "disparity" (the map, row by row), "filter" (the map, in 2-D).
+        maps), "disparity" (the float map from the kernels' and the checks' mask, row
+        by row), "filter" (the map, in 2-D).
     on(stages, cost): whether it runs.
     input_rows(stages): rows of input it needs beyond a stripe's (row-local stages).
     map_rows(stages): rows of the map it needs beyond a stripe's (2-D filters).
@@ -93,25 +95,10 @@ def textured(left, window, cap, threshold):
     return box_sum(response, window) >= threshold
 
 
-def subpixel_offset(best, prev, nxt, fit):
-    """float64 (H, W) offsets in (-0.5, 0.5] from the costs at d - 1, d, d + 1 (int64, -1
-    where unknown); 0 where a neighbour is unknown or the costs are flat."""
-    # Integer arithmetic, exact, then one division in float64: the same quotients as
-    # converting first (every cost is far below 2**53), in fewer passes.
-    known = (prev >= 0) & (nxt >= 0)
-    if fit == "parabola":
-        denominator = prev - 2 * best + nxt
-    else:  # linear: the equiangular (V-shaped) fit, suited to SAD-like costs
-        denominator = np.maximum(prev, nxt) - best
-    ok = known & (denominator > 0)
-    offset = np.zeros(best.shape, np.float64)
-    np.divide(prev - nxt, 2 * denominator, out=offset, where=ok)
-    return np.clip(offset, -0.5, 0.5, out=offset)
-
-
 # ---------------------------------------------------------------------------- the steps
 # images: (left, right, stages) -> (left, right).  check: (run) -> bool mask, run being
-# the pipeline's record of the kernels' maps.  disparity: (run) -> float64 offsets.
+# the pipeline's record of the kernels' maps.  disparity: (run, valid, threads) ->
+# the float32 map, NaN where valid (the checks' mask) is False.
 # filter: (disp, stages, workspace, threads) -> disp.
 
 def _prefilter(left, right, stages):
@@ -138,9 +125,10 @@ def _texture(run):
     return mask if run.rows is None else mask[run.rows]
 
 
-def _subpixel(run):
+def _subpixel(run, valid, threads):
     raw = run.raw
-    return subpixel_offset(raw.min_cost, raw.prev_cost, raw.next_cost, run.stages.subpixel)
+    return subpixel(raw.disparity, raw.min_cost, raw.prev_cost, raw.next_cost, valid,
+                    run.stages.subpixel, threads)
 
 
 def _speckle(disp, stages, workspace, threads):
@@ -193,7 +181,8 @@ STAGES = (
           input_rows=lambda st: 0 if st.prefilter == "xsobel" else 1,
           band_bytes=lambda st: 32),
     Stage("subpixel", ("subpixel",), "disparity",
-          on=lambda st, cost: st.subpixel != "none", step=_subpixel, extras=True),
+          on=lambda st, cost: st.subpixel != "none", step=_subpixel, extras=True,
+          entries=(("filters", ("subpixel",)),)),
     # A region under S = speckle_size pixels spans at most S - 1 rows beyond any of its
     # pixels; a larger one has S of its pixels within S - 1 rows (its first S pixels in a
     # breadth-first walk), so S - 1 rows decide every region as the whole map does.

@@ -28,10 +28,12 @@ SPECKLE = scalar_index(("step", "y0", "y1", "max_size"))
 MEDIAN = scalar_index(("y0", "y1", "size"))
 FILL = scalar_index(("y0", "y1"))
 FLOAT = scalar_index(("y0", "y1", "invalid", "checked"))
+SUBPIXEL = scalar_index(("y0", "y1", "linear"))
 
 
 def spec(kind):
-    """The worker of a filter: "lr", "speckle", "median", "fill" or "float"."""
+    """The worker of a filter: "lr", "winners", "speckle", "median", "fill", "float" or
+    "subpixel"."""
     workers = {
         # the left-right check of a stripe of rows
         "lr": (lr_consistent, (arg("disp", I32, 2), arg("right_disp", I32, 2),
@@ -56,6 +58,10 @@ def spec(kind):
         # disp (H, W), lr_valid (H, W) or a (1, W) dummy unless checked, out (H, W)
         "float": (as_float, (arg("disp", I32, 2), arg("lr_valid", U8, 2),
                              arg("out", F32, 2)), FLOAT),
+        # disp, valid (H, W); best, prev, nxt (H, W) the costs at d, d - 1, d + 1; out
+        "subpixel": (subpixel_map, (arg("disp", I32, 2), arg("best", I64, 2),
+                                    arg("prev", I64, 2), arg("nxt", I64, 2),
+                                    arg("valid", U8, 2), arg("out", F32, 2)), SUBPIXEL),
     }
     worker, arrays, scalars = workers[kind]
     return Spec(worker, Signature(arrays, scalars._fields))
@@ -393,4 +399,35 @@ def as_float(disp, lr_valid, out, sc):
             if checked:
                 keep = keep and lr_valid[y, x] != 0
             out[y, x] = np.float32(d) if keep else nan
+    return 0
+
+
+@njit(**SERIAL)
+def subpixel_map(disp, best, prev, nxt, valid, out, sc):
+    """out[y, x] = disp[y, x] + the offset of a fit through the costs at d - 1, d and
+    d + 1 (prev, best, nxt), as float32, NaN where valid[y, x] is 0; for the rows y0 <= y
+    < y1 (sc: SUBPIXEL).  The offset: (prev - nxt) / (2 * denominator) clipped to
+    [-0.5, 0.5], the denominator prev - 2 best + nxt (a parabola) or, with linear,
+    max(prev, nxt) - best (the equiangular fit, suited to SAD-like costs); 0 where a
+    neighbour is unknown (-1) or the denominator is not positive.  In float64 as NumPy
+    divides integers, so that the map equals d + offset rounded once to float32.
+
+    disp: int32 (H, W); best, prev, nxt: int64 (H, W); valid: uint8 (H, W); out:
+    float32 (H, W)."""
+    width = disp.shape[1]
+    linear = sc[SUBPIXEL.linear] != 0
+    nan = np.float32(np.nan)
+    for y in range(sc[SUBPIXEL.y0], sc[SUBPIXEL.y1]):
+        for x in range(width):
+            if valid[y, x] == 0:
+                out[y, x] = nan
+                continue
+            c, p, n = best[y, x], prev[y, x], nxt[y, x]
+            offset = 0.0
+            if p >= 0 and n >= 0:
+                denominator = max(p, n) - c if linear else p - 2 * c + n
+                if denominator > 0:
+                    offset = min(max(np.float64(p - n) / np.float64(2 * denominator),
+                                     -0.5), 0.5)
+            out[y, x] = np.float32(np.float64(disp[y, x]) + offset)
     return 0

@@ -195,3 +195,27 @@ def test_the_padder_equals_edge_padding_of_the_image_and_of_it_reversed(dtype):
         wide = rng.integers(0, 200, (shape[0], 2 * shape[1]), dtype=dtype)
         view = wide[:, :shape[1]]  # a side-by-side frame's half: not contiguous
         np.testing.assert_array_equal(padders[0](view), pad_edge(view, h, dtype))
+
+
+@pytest.mark.parametrize("fit", ["parabola", "linear"])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_the_subpixel_map_equals_the_oracle_in_every_stripe(fit, threads, monkeypatch):
+    import oracle
+
+    monkeypatch.setattr(runtime, "DIRECT_WORK", 0)  # the rows split between the threads
+    rng = np.random.default_rng(11)
+    shape = (37, 29)
+    disp = rng.integers(0, 60, shape).astype(np.int32)
+    best = rng.integers(0, 2000, shape)
+    # Neighbours above, equal to (flat: no fit), below the best (a denominator <= 0) or
+    # unknown (-1).
+    prev = np.where(rng.random(shape) < 0.1, -1, best + rng.integers(-30, 400, shape))
+    nxt = np.where(rng.random(shape) < 0.1, -1, best + rng.integers(-30, 400, shape))
+    flat = rng.random(shape) < 0.1
+    prev[flat], nxt[flat] = best[flat], best[flat]
+    valid = rng.random(shape) < 0.8
+    got = filters.subpixel(disp, best, prev, nxt, valid, fit, threads=threads)
+    want = np.where(valid, oracle.subpixel(disp, best, prev, nxt, fit), np.nan)
+    np.testing.assert_array_equal(got, want.astype(np.float32))
+    moved = np.isfinite(got) & (got != disp)
+    assert 0.3 < moved.mean() < 0.8  # the fit moved most pixels, not every one
