@@ -25,7 +25,8 @@ def _by_rows(kind, arguments, height, scratch=None, threads=None, per_pixel=8):
     ``scratch`` arrays each stripe makes (name -> a function making one); per_pixel: its
     work per pixel in runtime.DIRECT_WORK's units."""
     run = native.entry(*entry("filters", kind))
-    work = arguments["disp"].size * per_pixel
+    width = next(a.shape[1] for a in arguments.values() if getattr(a, "ndim", 0) == 2)
+    work = height * width * per_pixel
     count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)
 
@@ -126,6 +127,19 @@ def subpixel(disp, best, prev, nxt, valid, fit, threads=None, out=None):
 # About 0.5 ns a pixel in one thread (four maps read, one written), in
 # runtime.DIRECT_WORK's units.
 SUBPIXEL_WORK = 3
+
+
+def confidence(best, second, valid, threads=None, out=None):
+    """float32 (H, W): (second - best) / second, 0..1 where the costs are a match's
+    least and second best (int64 (H, W); second -1 where there is none); 0 where
+    ``valid`` (bool or uint8 (H, W)) is False or there is no second.  out: a float32
+    (H, W) array to write into, else a new one.  threads: as for csw.match."""
+    best, second = (np.ascontiguousarray(a, np.int64) for a in (best, second))
+    valid = np.ascontiguousarray(valid).view(np.uint8)
+    out = np.empty(best.shape, np.float32) if out is None else out
+    _by_rows("confidence", dict(best=best, second=second, valid=valid, out=out),
+             best.shape[0], threads=threads, per_pixel=SUBPIXEL_WORK)
+    return out
 
 
 _NO_CHECK = np.zeros((1, 1), np.uint8)  # the worker never reads it

@@ -60,6 +60,8 @@ def entries(args, stages, dtype, confidence=False):
     return matching + \
         [entry for stage in active(stages, cost) for entry in stage.entries] + \
         [catalogue.entry("filters", "float")] + \
+        ([catalogue.entry("filters", "confidence")] if confidence or
+         needs_extras(stages, cost) else []) + \
         ([catalogue.entry("prefilter", dtype)] if prefiltered else []) + \
         ([catalogue.entry("pad", dtype)] if args["engine"] == "fast" else [])  # calls' padding
 
@@ -81,12 +83,10 @@ def penalties(stages, cost, window, dtype):
     return p1, p2
 
 
-def confidence_map(min_cost, second, valid):
-    """float32 (H, W): (second - best) / second, 0..1; 0 where invalid or no second."""
-    ok = valid & (second > 0)
-    ratio = np.zeros(min_cost.shape, np.float64)
-    np.divide(second - min_cost, second, out=ratio, where=ok)  # as indexing by ok
-    return ratio.astype(np.float32)
+def confidence_map(min_cost, second, valid, threads=None):
+    """float32 (H, W): (second - best) / second, 0..1; 0 where invalid or no second (one
+    compiled pass: kernels.filters.confidence)."""
+    return filters.confidence(min_cost, second, valid, threads)
 
 
 class CandidateCounts:
@@ -232,7 +232,7 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
         disp = filters.as_float(raw.disparity, valid, invalid, threads=threads)
     # None when the second-best costs were not computed: no confidence to give.
     conf = None if raw.second_cost is None else confidence_map(raw.min_cost, raw.second_cost,
-                                                               valid)
+                                                               valid, threads)
     return disp, conf, Work(raw.min_cost, raw.evaluated, raw.candidates)
 
 

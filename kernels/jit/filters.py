@@ -29,11 +29,12 @@ MEDIAN = scalar_index(("y0", "y1", "size"))
 FILL = scalar_index(("y0", "y1"))
 FLOAT = scalar_index(("y0", "y1", "invalid", "checked"))
 SUBPIXEL = scalar_index(("y0", "y1", "linear"))
+CONFIDENCE = scalar_index(("y0", "y1"))
 
 
 def spec(kind):
-    """The worker of a filter: "lr", "winners", "speckle", "median", "fill", "float" or
-    "subpixel"."""
+    """The worker of a filter: "lr", "winners", "speckle", "median", "fill", "float",
+    "subpixel" or "confidence"."""
     workers = {
         # the left-right check of a stripe of rows
         "lr": (lr_consistent, (arg("disp", I32, 2), arg("right_disp", I32, 2),
@@ -62,6 +63,10 @@ def spec(kind):
         "subpixel": (subpixel_map, (arg("disp", I32, 2), arg("best", I64, 2),
                                     arg("prev", I64, 2), arg("nxt", I64, 2),
                                     arg("valid", U8, 2), arg("out", F32, 2)), SUBPIXEL),
+        # best, second (H, W) the least and second-best costs; valid (H, W); out
+        "confidence": (confidence_map, (arg("best", I64, 2), arg("second", I64, 2),
+                                        arg("valid", U8, 2), arg("out", F32, 2)),
+                       CONFIDENCE),
     }
     worker, arrays, scalars = workers[kind]
     return Spec(worker, Signature(arrays, scalars._fields))
@@ -430,4 +435,22 @@ def subpixel_map(disp, best, prev, nxt, valid, out, sc):
                     offset = min(max(np.float64(p - n) / np.float64(2 * denominator),
                                      -0.5), 0.5)
             out[y, x] = np.float32(np.float64(disp[y, x]) + offset)
+    return 0
+
+
+@njit(**SERIAL)
+def confidence_map(best, second, valid, out, sc):
+    """out[y, x] = (second - best) / second of the pixel's costs, in float64 rounded once
+    to float32 (as NumPy divides integers), 0 where valid[y, x] is 0 or there is no
+    second (second <= 0); for the rows y0 <= y < y1 (sc: CONFIDENCE).
+
+    best, second: int64 (H, W); valid: uint8 (H, W); out: float32 (H, W)."""
+    width = best.shape[1]
+    for y in range(sc[CONFIDENCE.y0], sc[CONFIDENCE.y1]):
+        for x in range(width):
+            s = second[y, x]
+            ratio = 0.0
+            if valid[y, x] != 0 and s > 0:
+                ratio = np.float64(s - best[y, x]) / np.float64(s)
+            out[y, x] = np.float32(ratio)
     return 0
