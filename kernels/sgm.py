@@ -46,7 +46,7 @@ from .contract import (
 from .costs import cost_coded, cost_named
 from .fast import keyed_range
 from .window import extra_maps, result
-from .workspace import output
+from .workspace import empty, output, slab
 
 COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3  # the worker's steps (jit/sgm.py)
 
@@ -175,8 +175,8 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     down) or 8.  p1, p2:
     the penalties, whole numbers, 0 <= P1 <= P2.  extras, right_map, lr_check, threads,
     into: as for kernels.fast.match_fast.  band_bytes: a band's memory (tests make it
-    small to cut many bands; None: BAND_BYTES); workspace is not used (the bands are
-    the match's own).
+    small to cut many bands; None: BAND_BYTES); workspace: a kernels.workspace.Workspace
+    that keeps the band's slabs for the next match (None: fresh ones).
     rows: as for match_fast, but every row is matched (the paths cross them all) and
     the maps keep those asked for.
     starts, slots: a narrowed search: pixel p searches d = dmin + starts[p] + k for k <
@@ -255,26 +255,29 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                                      acc.itemsize + cost_type(cmax, acc).itemsize,
                                      downward_paths(paths) * acc.itemsize *
                                      (ndisp + 2 * pad) / ndisp, band_bytes, single_pass)
-    costs = np.empty((rows_per_band, width, ndisp), cost_type(cmax, acc))
-    sums = np.empty((rows_per_band, width, ndisp), acc)
+    # The slabs from the thread's workspace where there is one (kernels/workspace.py):
+    # a stream's or a notebook's next match reuses them (a half-size pass's as well).
+    costs = slab(workspace, "sgm-costs", (rows_per_band, width, ndisp), cost_type(cmax, acc))
+    sums = slab(workspace, "sgm-sums", (rows_per_band, width, ndisp), acc)
     never = int(np.iinfo(acc).max)
     big = sentinel(cmax, p2, banded)  # the d axis's sentinels
 
-    def fresh_state():
-        state = np.full((2, width, ndisp + 2 * pad), big, acc)
+    def fresh_state(path):
+        state = empty(workspace, f"sgm-{path}", (2, width, ndisp + 2 * pad), acc)
+        state.fill(big)
         state[:, :, pad:pad + ndisp] = 0
         return state, np.zeros((2, width), acc)
 
-    down, down_mins = fresh_state()
+    down, down_mins = fresh_state("down")
     diagonals = paths != 4
     if diagonals:
-        down_l, down_l_mins = fresh_state()
-        down_r, down_r_mins = fresh_state()
+        down_l, down_l_mins = fresh_state("down-left")
+        down_r, down_r_mins = fresh_state("down-right")
     if not single_pass:
-        up, up_mins = fresh_state()
+        up, up_mins = fresh_state("up")
     if paths == 8:
-        up_l, up_l_mins = fresh_state()
-        up_r, up_r_mins = fresh_state()
+        up_l, up_l_mins = fresh_state("up-left")
+        up_r, up_r_mins = fresh_state("up-right")
     dummy3 = np.empty((1, 1, 1), acc)
     dummy2 = np.empty((1, 1), acc)
     base = dict(left_p=left_p, right_rev=right_rev, costs=costs, sums=sums,

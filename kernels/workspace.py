@@ -26,6 +26,8 @@ Rules that keep this safe:
   and keeping it would hold memory after the match and raise the peak of the stages
   after its own (the census codes, kept through the filters, raised the peak of a
   2880 x 1988 match from 293 to 348 MB).  Kept, they saved no time measurable there.
+  A semi-global match's slabs are the exception (SLAB_LARGEST): little work is done
+  on each of their bytes.
 """
 
 import math
@@ -37,6 +39,15 @@ import numpy as np
 # save its codes.
 LARGEST = 8 << 20
 LIMIT = 64 << 20
+# A semi-global match's slabs (its costs and its sums over the paths, kernels/sgm.py)
+# are the exception: kept up to this many bytes each, beside LIMIT (:meth:`Workspace.slab`).
+# Their work per byte is a few additions, so faulting them in was not little beside
+# it: a 640 x 480 d 0..63 stream frame's two 39 MB slabs took 13% of its time, as
+# fresh arrays, on a Zen 4 core.  SGBM keeps its buffer in its matcher object too.
+# Kept, a slab is held through the filters after it: slabs of up to 128 MB raised the
+# peak of `csw match` at 1920 x 1080 d 0..255 from 422 to 530 MB (its bands' are 67
+# MB); up to 64 MB (a KITTI frame's 60 MB are kept), the peak is unchanged.
+SLAB_LARGEST = 64 << 20
 # What a kept bound call holds a pixel, at most: a census call's padded image and codes, the
 # speckle filter's forest, and the last outputs its bound calls still point at.
 CALL_BYTES = 16
@@ -48,6 +59,7 @@ class Workspace:
     def __init__(self, limit=LIMIT, largest=LARGEST):
         self.limit, self.largest = limit, largest
         self._held = {}  # role -> uint8 (n,) buffer
+        self._slabs = {}  # role -> uint8 (n,) buffer: see slab()
         self._kept = {}  # role -> (key, object): see keep()
 
     def held(self):
@@ -57,6 +69,7 @@ class Workspace:
     def release(self):
         """Keep nothing (arrays already taken stay valid: they hold their buffers)."""
         self._held.clear()
+        self._slabs.clear()
         self._kept.clear()
 
     def empty(self, role, shape, dtype):
@@ -72,6 +85,19 @@ class Workspace:
                 return np.empty(shape, dtype)
             # numpy aligns its buffers for every dtype, so the views below are aligned.
             buffer = self._held[role] = np.empty(nbytes, np.uint8)
+        return buffer[:nbytes].view(dtype).reshape(shape)
+
+    def slab(self, role, shape, dtype):
+        """As :meth:`empty`, for a semi-global match's slabs: kept up to SLAB_LARGEST bytes
+        each, outside LIMIT and :meth:`held`."""
+        dtype = np.dtype(dtype)
+        nbytes = math.prod(shape) * dtype.itemsize
+        buffer = self._slabs.get(role)
+        if buffer is None or buffer.size < nbytes:
+            self._slabs.pop(role, None)  # dropped before its successor is made
+            if nbytes > SLAB_LARGEST:
+                return np.empty(shape, dtype)
+            buffer = self._slabs[role] = np.empty(nbytes, np.uint8)
         return buffer[:nbytes].view(dtype).reshape(shape)
 
     def keeps_calls(self, pixels):
@@ -106,6 +132,13 @@ def empty(workspace, role, shape, dtype):
     if workspace is None:
         return np.empty(shape, dtype)
     return workspace.empty(role, shape, dtype)
+
+
+def slab(workspace, role, shape, dtype):
+    """``workspace.slab(role, shape, dtype)``, or a fresh array without a workspace."""
+    if workspace is None:
+        return np.empty(shape, dtype)
+    return workspace.slab(role, shape, dtype)
 
 
 def output(into, role, shape, dtype):

@@ -66,8 +66,9 @@ def narrows(slots, dmin, dmax):
 def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
     """The full-size pass's starts, int32 (H, W) in 0..D - slots (kernels.sgm.match_sgm's),
     from a half-size semi-global match of ``left``, ``right`` over half the range, with
-    match_options (window, cost, paths, p1, p2, census_window, census_pattern) as the
-    full pass's; None where the range is at most ``slots`` wide (nothing to narrow)."""
+    match_options (window, cost, paths, p1, p2, census_window, census_pattern, and the
+    workspace whose slabs the full pass takes next) as the full pass's; None where the
+    range is at most ``slots`` wide (nothing to narrow)."""
     ndisp = dmax - dmin + 1
     if not narrows(slots, dmin, dmax) or min(left.shape) < 4:
         return None

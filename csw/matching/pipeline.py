@@ -194,7 +194,8 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
                                    window=kernel_args["window"], cost=cost,
                                    paths=stages.sgm_paths, p1=p1, p2=p2,
                                    census_window=stages.census_window,
-                                   census_pattern=stages.census_pattern)
+                                   census_pattern=stages.census_pattern,
+                                   workspace=workspace)
         raw = sgm.match_sgm(a, b, paths=stages.sgm_paths, p1=p1, p2=p2, starts=starts,
                             slots=None if starts is None else stages.sgm_narrow, **options,
                             **kernel_args)

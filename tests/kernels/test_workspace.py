@@ -87,7 +87,43 @@ def test_a_caller_lends_the_outputs_it_wants_written_in_place(small_scene):
                       into={"disparity": np.empty((2, 2), np.int32)})
 
 
-@pytest.mark.parametrize("preset", ["accurate", "raw"])
+def test_slabs_are_kept_beside_the_limit_up_to_their_own_largest(monkeypatch):
+    from csw.kernels import workspace
+
+    monkeypatch.setattr(workspace, "SLAB_LARGEST", 4000)
+    ws = Workspace(limit=1000, largest=100)
+    costs = ws.slab("sgm-costs", (10, 20, 10), np.uint16)  # 4000 bytes: kept
+    assert ws.held() == 0  # outside the limit of the other buffers
+    assert np.shares_memory(costs, ws.slab("sgm-costs", (5, 5, 5), np.uint8))
+    assert not np.shares_memory(costs, ws.slab("sgm-sums", (10, 20, 10), np.uint16))
+    big = ws.slab("sgm-costs", (2001,), np.uint16)  # over the largest: fresh, and the
+    assert not np.shares_memory(big, ws.slab("sgm-costs", (2001,), np.uint16))  # old
+    assert "sgm-costs" not in ws._slabs  # buffer dropped
+    sums = ws.slab("sgm-sums", (10,), np.uint8)
+    ws.release()
+    assert not np.shares_memory(sums, ws.slab("sgm-sums", (10,), np.uint8))
+
+
+def test_semi_global_matches_reuse_their_slabs_and_equal_fresh_ones(small_scene):
+    """The sgm preset narrowed (its half-size pass too) through the thread's workspace,
+    on pairs of other sizes in turn, equals runs that keep nothing."""
+    left, right = small_scene[:2]
+    ws = for_this_thread()
+    ws.release()
+    options = dict(preset="sgm", dmax=24, sgm_narrow=8)
+    pairs = [(left, right), (right[:40, :50], left[:40, :50]), (left, right)]
+    for pair in pairs:
+        got = csw.match(*pair, want_confidence=True, **options)
+        opts = params.resolve(**options)
+        want, confidence, _ = pipeline.run(*pair, opts.kernel_args(), opts.stages,
+                                           confidence=True)
+        np.testing.assert_array_equal(got.disparity, want)
+        np.testing.assert_array_equal(got.confidence, confidence)
+        assert {"sgm-costs", "sgm-sums"} <= set(ws._slabs)
+        assert not any(np.shares_memory(got.disparity, b) for b in ws._slabs.values())
+
+
+@pytest.mark.parametrize("preset", ["accurate", "raw", "sgm"])
 def test_results_of_csw_match_survive_the_next_match(small_scene, preset):
     """What csw.match returns is the caller's: a later match on the same thread, of
     another size, leaves it as it was."""
