@@ -45,8 +45,8 @@ LIMIT = 64 << 20
 # it: a 640 x 480 d 0..63 stream frame's two 39 MB slabs took 13% of its time, as
 # fresh arrays, on a Zen 4 core.  SGBM keeps its buffer in its matcher object too.
 # Kept, a slab is held through the filters after it: slabs of up to 128 MB raised the
-# peak of `csw match` at 1920 x 1080 d 0..255 from 422 to 530 MB (its bands' are 67
-# MB); up to 64 MB (a KITTI frame's 60 MB are kept), the peak is unchanged.
+# peak of `csw match` at 1920 x 1080 d 0..255 by 108 MB (369 to 477 MB); up to 64 MB (a
+# KITTI frame's 60 MB are kept, and that pair's band slabs of 63.98), it is unchanged.
 SLAB_LARGEST = 64 << 20
 # What a kept bound call holds a pixel, at most: a census call's padded image and codes, the
 # speckle filter's forest, and the last outputs its bound calls still point at.
