@@ -166,7 +166,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
               census_window=None, census_pattern=None, extras=False, right_map=False,
               lr_check=None, threads=None, into=None, band_bytes=None,
               workspace=None, engine="fast", csw=False, tau=-1, rule="literal",
-              csw_margin=None, rows=None, starts=None, slots=None):
+              csw_margin=None, rows=None, starts=None, slots=None, second=True):
     """Semi-global matching of a rectified pair (kernels/jit/sgm.py has the definition).
 
     left, right: uint8 or uint16 (H, W), same shape and dtype.  window, dmin, dmax,
@@ -174,9 +174,12 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     costs before aggregation; 1 aggregates each pixel's own).  paths: 4, 5 (one sweep
     down) or 8.  p1, p2:
     the penalties, whole numbers, 0 <= P1 <= P2.  extras, right_map, lr_check, threads,
-    into: as for kernels.fast.match_fast.  band_bytes: a band's memory (tests make it
-    small to cut many bands; None: BAND_BYTES); workspace: a kernels.workspace.Workspace
-    that keeps the band's slabs for the next match (None: fresh ones).
+    into: as for kernels.fast.match_fast; with extras, second=False leaves the second
+    best out (its result's second_cost None), which a confidence and the uniqueness
+    check read but subpixel does not: a sixth of the winners' step.  band_bytes: a
+    band's memory (tests make it small to cut many bands; None: BAND_BYTES); workspace:
+    a kernels.workspace.Workspace that keeps the band's slabs for the next match (None:
+    fresh ones).
     rows: as for match_fast, but every row is matched (the paths cross them all) and
     the maps keep those asked for.
     starts, slots: a narrowed search: pixel p searches d = dmin + starts[p] + k for k <
@@ -246,6 +249,9 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     disp = output(into, "disparity", (height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
     maps = extra_maps(disp.shape, s, workspace)
+    seconds = s.extras and second
+    if s.extras and not second:  # the worker never writes a second best: a dummy
+        maps = (np.empty((1, width), np.int64), *maps[1:])
     checked = s.lr_check >= 0
     lr_valid = output(into, "lr_valid", (height, width), np.uint8) if checked else \
         np.empty((1, width), np.uint8)
@@ -289,7 +295,8 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                 disp=disp, min_cost=min_cost, second=maps[0], prev=maps[1], next=maps[2],
                 right_disp=maps[3], lr_valid=lr_valid, window=s.window, dmin=s.dmin,
                 p1=p1, p2=p2, cmax=cmax, never=never, y0=0, y1=0, band_y0=0, x0=0, x1=0,
-                direction=1, add=0, extras=int(s.extras), keep_right=int(s.right_map),
+                direction=1, add=0, extras=2 if seconds else int(s.extras),
+                keep_right=int(s.right_map),
                 lr_limit=s.lr_check, keyed=int(keyed_range() > 0), starts=starts,
                 tile_rows=TILE_ROWS)
     right_width = width + shift
@@ -394,8 +401,11 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         *maps, lr_valid = (m[rows] if m.shape[0] == height else m for m in (*maps, lr_valid))
     plain = candidate_count(width, s.dmin, s.dmax) * rows.size
     searched = min(plain, rows.size * width * ndisp) if banded else plain
-    return result(disp, min_cost, searched, plain, s, maps,
-                  lr_valid.view(np.bool_) if checked else None)
+    found = result(disp, min_cost, searched, plain, s, maps,
+                   lr_valid.view(np.bool_) if checked else None)
+    if not seconds:
+        found.second_cost = None
+    return found
 
 
 def pad_of(slots, banded):

@@ -37,7 +37,7 @@ from ..kernels import catalogue, filters, sgm
 from ..kernels.contract import census_bits
 from ..kernels.costs import cost_named
 from . import narrow
-from .stages import active, needs_extras
+from .stages import active, needs_extras, needs_second
 
 
 def entries(args, stages, dtype, confidence=False):
@@ -197,7 +197,8 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
                                    census_pattern=stages.census_pattern,
                                    workspace=workspace)
         raw = sgm.match_sgm(a, b, paths=stages.sgm_paths, p1=p1, p2=p2, starts=starts,
-                            slots=None if starts is None else stages.sgm_narrow, **options,
+                            slots=None if starts is None else stages.sgm_narrow,
+                            second=confidence or needs_second(stages, cost), **options,
                             **kernel_args)
     else:
         raw = kernels.match(a, b, **options, **kernel_args)

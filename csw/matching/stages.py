@@ -45,7 +45,7 @@ class Stage:
     map_rows(stages): rows of the map it needs beyond a stripe's (2-D filters).
     band_bytes(stages): bytes per band pixel it adds to the first pass (the kernels'
         pass); map_bytes: to the second (the 2-D filters').
-    extras: it needs the kernels' second-best and neighbour costs.
+    extras: it needs the kernels' neighbour costs; second: and their second best.
     entries: the compiled kernel entries it loads beyond the engine's.
     step: its step, with the arguments of its kind (see csw.matching.pipeline).
     fills: it gives invalid pixels a value (the confidence is masked before it).
@@ -61,6 +61,7 @@ class Stage:
     band_bytes: Callable = _none
     map_bytes: int = 0
     extras: bool = False
+    second: bool = False
     entries: tuple = ()
     fills: bool = False
 
@@ -174,7 +175,7 @@ STAGES = (
           band_bytes=lambda st: 1, entries=(("filters", ("winners",)),)),
     Stage("uniqueness_ratio", ("uniqueness_ratio",), "check",
           on=lambda st, cost: st.uniqueness_ratio is not None, step=_uniqueness,
-          extras=True),
+          extras=True, second=True),
     # The x-Sobel row beyond a stripe is the prefilter's too, when both run.
     Stage("texture_threshold", ("texture_threshold",), "check",
           on=lambda st, cost: st.texture_threshold is not None, step=_texture,
@@ -225,3 +226,9 @@ def cost_shaping(stages):
 def needs_extras(stages, cost=None):
     """Whether the kernels must make the second-best and neighbour costs."""
     return any(s.extras for s in active(stages, cost))
+
+
+def needs_second(stages, cost=None):
+    """Whether a stage reads the second-best costs (the local engines make them with the
+    neighbours' in any case; semi-global matching only when asked)."""
+    return any(s.second for s in active(stages, cost))

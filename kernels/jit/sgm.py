@@ -503,7 +503,8 @@ def _make(cost, cost_type, acc, negative, banded):
         engine's select_row)."""
         p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
         y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
-        dmin, extras = sc[SC.dmin], sc[SC.extras] != 0
+        # extras 1: the neighbours' totals; 2: and the second best (kernels/sgm.py)
+        dmin, extras, seconds = sc[SC.dmin], sc[SC.extras] != 0, sc[SC.extras] == 2
         keep_right, lr_limit = sc[SC.keep_right], sc[SC.lr_limit]
         track_right = keep_right != 0 or lr_limit >= 0
         width, ndisp = costs.shape[1], costs.shape[2]
@@ -588,7 +589,9 @@ def _make(cost, cost_type, acc, negative, banded):
                     out_disp[x] = invalid
                     out_cost[x] = -1
                     if extras:
-                        second[y, x], prev[y, x], nxt[y, x] = -1, -1, -1
+                        prev[y, x], nxt[y, x] = -1, -1
+                    if seconds:
+                        second[y, x] = -1
                     continue
                 out_disp[x] = first_d + first
                 out_cost[x] = best
@@ -601,7 +604,7 @@ def _make(cost, cost_type, acc, negative, banded):
                         kept = best_r[k]
                         d_r[k] = keep_or_take(d_r[k], k + start, v < kept)
                         best_r[k] = min(v, kept)
-                if extras:
+                if seconds:
                     # The least total 2 or more from first: one plain minimum with the
                     # three around first set aside, then put back (a test per k, or two
                     # loops on either side, stayed scalar: a third of the rows' time).
@@ -617,6 +620,7 @@ def _make(cost, cost_type, acc, negative, banded):
                     t[mid] = kept1
                     t[a0] = kept0
                     second[y, x] = -1 if other == never else np.int64(other)
+                if extras:
                     prev[y, x] = -1 if first == lo else np.int64(t[first - 1])
                     nxt[y, x] = -1 if first + 1 >= n else np.int64(t[first + 1])
             if track_right and keep_right:

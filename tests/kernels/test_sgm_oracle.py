@@ -238,3 +238,29 @@ def test_bad_options_are_refused(bad, message):
 def test_sums_that_would_pass_32_bits_are_refused():
     with pytest.raises(ValueError, match="exceed 32 bits"):
         sgm.accumulator(65535 * 65535 * 81, 1, 2, 8)
+
+
+@pytest.mark.parametrize("narrowed", [False, True])
+def test_without_the_second_best_every_other_map_equals_the_oracle(narrowed):
+    """second=False (no stage reads the second best): the second best is not made, and
+    the winners, their neighbours' totals, the right map and the check are the oracle's,
+    including at the left edge where a pixel has no candidate."""
+    rng = np.random.default_rng(8)
+    left, right = pair(rng, 11, 17)
+    p1, p2 = sgm.default_penalties("census", 3, 8)
+    dmin, dmax = -1, 8
+    starts, slots = None, None
+    if narrowed:
+        slots = 6
+        starts = rng.integers(0, dmax - dmin + 2 - slots, left.shape).astype(np.int32)
+    kw = dict(window=3, dmin=dmin, dmax=dmax, cost="census", paths=4, p1=p1, p2=p2)
+    got = sgm.match_sgm(left, right, extras=True, right_map=True, lr_check=1, second=False,
+                        starts=starts, slots=slots, **CENSUS, **kw)
+    disp, mins, more = sgm_match(left, right, 3, dmin, dmax, "census", 4, p1, p2, **CENSUS,
+                                 starts=starts, band=slots)
+    assert got.second_cost is None
+    np.testing.assert_array_equal(got.disparity, disp)
+    np.testing.assert_array_equal(got.min_cost, mins)
+    for name in ("prev_cost", "next_cost", "right_disparity"):
+        np.testing.assert_array_equal(getattr(got, name), more[name], err_msg=name)
+    assert (more["second_cost"] >= 0).any() and (got.prev_cost >= 0).any()

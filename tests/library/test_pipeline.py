@@ -236,3 +236,17 @@ def test_margins_and_entries_come_from_the_stage_records():
     assert [e for e in loaded if e[0] == "filters"] == [
         ("filters", ("speckle",)), ("filters", ("median",)), ("filters", ("fill",)),
         ("filters", ("float",))]  # the float map, which every run may make
+
+
+def test_sgm_makes_the_second_best_only_where_something_reads_it(small_scene):
+    """Subpixel reads the neighbours' costs alone: the sgm preset's map is the same with
+    and without a confidence, which is made only when asked for or when the uniqueness
+    check needs the second best."""
+    left, right = small_scene[:2]
+    plain = csw.match(left, right, dmax=12, preset="sgm")
+    asked = csw.match(left, right, dmax=12, preset="sgm", want_confidence=True)
+    np.testing.assert_array_equal(plain.disparity, asked.disparity)
+    assert not plain.confidence.any() and asked.confidence.max() > 0
+    unique = csw.match(left, right, dmax=12, preset="sgm", uniqueness_ratio=10)
+    assert unique.confidence.max() > 0
+    assert np.isnan(unique.disparity).sum() >= np.isnan(plain.disparity).sum()
