@@ -248,10 +248,8 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
 
     disp = output(into, "disparity", (height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
-    maps = extra_maps(disp.shape, s, workspace)
+    maps = extra_maps(disp.shape, s, workspace, second=second)
     seconds = s.extras and second
-    if s.extras and not second:  # the worker never writes a second best: a dummy
-        maps = (np.empty((1, width), np.int64), *maps[1:])
     checked = s.lr_check >= 0
     lr_valid = output(into, "lr_valid", (height, width), np.uint8) if checked else \
         np.empty((1, width), np.uint8)
@@ -401,11 +399,8 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         *maps, lr_valid = (m[rows] if m.shape[0] == height else m for m in (*maps, lr_valid))
     plain = candidate_count(width, s.dmin, s.dmax) * rows.size
     searched = min(plain, rows.size * width * ndisp) if banded else plain
-    found = result(disp, min_cost, searched, plain, s, maps,
-                   lr_valid.view(np.bool_) if checked else None)
-    if not seconds:
-        found.second_cost = None
-    return found
+    return result(disp, min_cost, searched, plain, s, maps,
+                  lr_valid.view(np.bool_) if checked else None, second)
 
 
 def pad_of(slots, banded):

@@ -26,14 +26,15 @@ from .filters import lr_consistent
 from .workspace import empty, output
 
 
-def extra_maps(shape, s, workspace=None, right=None):
+def extra_maps(shape, s, workspace=None, right=None, second=True):
     """(second, prev, next, right) outputs: full maps where asked for (s.extras for the
-    first three; for the last, ``right``, by default s.right_map), else 1-row dummies the
-    workers never write (the entries take arrays of the right type either way).  The
-    right map, when only the left-right check uses it, is the workspace's scratch (see
-    match_fast); a returned one is fresh."""
+    first three, the first only with ``second``; for the last, ``right``, by default
+    s.right_map), else 1-row dummies the workers never write (the entries take arrays of
+    the right type either way).  The right map, when only the left-right check uses it,
+    is the workspace's scratch (see match_fast); a returned one is fresh."""
     rows = shape[0] if s.extras else 1
-    costs = tuple(np.full((rows, shape[1]), -1, np.int64) for _ in range(3))
+    costs = tuple(np.full((rows if second or i else 1, shape[1]), -1, np.int64)
+                  for i in range(3))
     stored = s.right_map if right is None else right
     right_shape = (shape[0] if stored else 1, shape[1])
     right_map = np.empty(right_shape, np.int32) if s.right_map else \
@@ -42,9 +43,10 @@ def extra_maps(shape, s, workspace=None, right=None):
     return (*costs, right_map)
 
 
-def result(disp, min_cost, evaluated, plain, s, maps, lr_valid=None):
-    """The MatchResult, with the extra maps only where they were computed."""
-    costs = maps[:3] if s.extras else (None,) * 3
+def result(disp, min_cost, evaluated, plain, s, maps, lr_valid=None, second=True):
+    """The MatchResult, with the extra maps only where they were computed (the second
+    best with extras and ``second``)."""
+    costs = (maps[0] if second else None, *maps[1:3]) if s.extras else (None,) * 3
     return MatchResult(disp, min_cost, evaluated, plain, *costs,
                        maps[3] if s.right_map else None, lr_valid)
 

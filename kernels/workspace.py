@@ -76,28 +76,27 @@ class Workspace:
         """An uninitialised array of ``shape`` and ``dtype`` in the buffer kept for
         ``role`` (grown as needed), or a fresh array when keeping it would pass the
         limits.  It is valid until the next request for ``role``."""
-        dtype = np.dtype(dtype)
-        nbytes = math.prod(shape) * dtype.itemsize
-        buffer = self._held.get(role)
-        if buffer is None or buffer.size < nbytes:
-            self._held.pop(role, None)
-            if nbytes > self.largest or self.held() + nbytes > self.limit:
-                return np.empty(shape, dtype)
-            # numpy aligns its buffers for every dtype, so the views below are aligned.
-            buffer = self._held[role] = np.empty(nbytes, np.uint8)
-        return buffer[:nbytes].view(dtype).reshape(shape)
+        return self._take(self._held, role, shape, dtype,
+                          lambda n: n <= self.largest and self.held() + n <= self.limit)
 
     def slab(self, role, shape, dtype):
         """As :meth:`empty`, for a semi-global match's slabs: kept up to SLAB_LARGEST bytes
         each, outside LIMIT and :meth:`held`."""
+        return self._take(self._slabs, role, shape, dtype, lambda n: n <= SLAB_LARGEST)
+
+    @staticmethod
+    def _take(store, role, shape, dtype, keeps):
+        """A view of ``store[role]`` (role -> uint8 buffer), grown as needed; a fresh
+        array where keeps(bytes) says no."""
         dtype = np.dtype(dtype)
         nbytes = math.prod(shape) * dtype.itemsize
-        buffer = self._slabs.get(role)
+        buffer = store.get(role)
         if buffer is None or buffer.size < nbytes:
-            self._slabs.pop(role, None)  # dropped before its successor is made
-            if nbytes > SLAB_LARGEST:
+            store.pop(role, None)  # dropped before its successor is made
+            if not keeps(nbytes):
                 return np.empty(shape, dtype)
-            buffer = self._slabs[role] = np.empty(nbytes, np.uint8)
+            # numpy aligns its buffers for every dtype, so the views below are aligned.
+            buffer = store[role] = np.empty(nbytes, np.uint8)
         return buffer[:nbytes].view(dtype).reshape(shape)
 
     def keeps_calls(self, pixels):

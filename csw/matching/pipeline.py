@@ -60,10 +60,18 @@ def entries(args, stages, dtype, confidence=False):
     return matching + \
         [entry for stage in active(stages, cost) for entry in stage.entries] + \
         [catalogue.entry("filters", "float")] + \
-        ([catalogue.entry("filters", "confidence")] if confidence or
-         needs_extras(stages, cost) else []) + \
+        ([catalogue.entry("filters", "confidence")] if makes_second(stages, cost, confidence)
+         else []) + \
         ([catalogue.entry("prefilter", dtype)] if prefiltered else []) + \
         ([catalogue.entry("pad", dtype)] if args["engine"] == "fast" else [])  # calls' padding
+
+
+def makes_second(stages, cost, confidence=False):
+    """Whether the kernels make the second-best costs (and so a confidence map): when
+    asked for, when a stage reads them, and in the local engines with the neighbours'
+    costs whatever needs those (semi-global matching makes them apart)."""
+    return confidence or needs_second(stages, cost) or \
+        (stages.aggregate != "sgm" and needs_extras(stages, cost))
 
 
 def compared_dtype(stages, dtype):
@@ -198,7 +206,7 @@ def match_rows(left, right, kernel_args, stages, confidence=False, workspace=Non
                                    workspace=workspace)
         raw = sgm.match_sgm(a, b, paths=stages.sgm_paths, p1=p1, p2=p2, starts=starts,
                             slots=None if starts is None else stages.sgm_narrow,
-                            second=confidence or needs_second(stages, cost), **options,
+                            second=makes_second(stages, cost, confidence), **options,
                             **kernel_args)
     else:
         raw = kernels.match(a, b, **options, **kernel_args)

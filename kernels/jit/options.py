@@ -21,8 +21,8 @@ INLINE = dict(SERIAL, inline="always")
 # disparities (a camera's range, a narrowed search's slots) never reached it and ran in
 # the 8-lane remainder.  One vector an iteration reaches it from 32 lanes on; on a Zen 4
 # core the camera preset's frame at 320 x 240 took 12% less time, raw at 1242 x 375
-# 12% less, and sgm's steps no slower (the window engine, census and filters were
-# not timed).
+# 12% less, the window engine 6% less, and sgm's steps no longer (census and the
+# filters were not timed alone).
 LLVM_OPTIONS = {"force-vector-interleave": (1, 0)}  # (csw's, LLVM's default)
 
 # The C-callable entries around the workers.
