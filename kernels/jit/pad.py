@@ -26,16 +26,17 @@ def pad(image, out, sc):
     height, width = image.shape
     for y in range(out.shape[0]):
         source = image[min(max(y - h, 0), height - 1)]
-        row = out[y]
-        first, last = (source[width - 1], source[0]) if reverse else (source[0],
-                                                                      source[width - 1])
-        for x in range(h):
-            row[x] = first
-            row[h + width + x] = last
         if reverse:
-            for x in range(width):
-                row[h + x] = source[width - 1 - x]
-        else:
-            for x in range(width):
-                row[h + x] = source[x]
+            source = source[::-1]
+        # Views indexed from 0: an index offset by a scalar may be negative for all
+        # Numba knows, and its wraparound test at every access kept the copy from
+        # vectorising (5x slower).
+        row = out[y]
+        before, inside, after = row[:h], row[h:h + width], row[h + width:]
+        first, last = source[0], source[width - 1]
+        for x in range(h):
+            before[x] = first
+            after[x] = last
+        for x in range(width):
+            inside[x] = source[x]
     return 0

@@ -28,10 +28,11 @@ def _make(lane):
     constant)."""
 
     @njit(**SERIAL)
-    def response(up, mid, down, a, b):
-        """The x-Sobel response of the pixel between columns a (left) and b (right)."""
-        return lane(lane(up[b]) - lane(up[a]) + lane(2) * (lane(mid[b]) - lane(mid[a]))
-                    + lane(down[b]) - lane(down[a]))
+    def response(up_a, up_b, mid_a, mid_b, down_a, down_b):
+        """The x-Sobel response from the pixels of the columns left (a) and right (b) of
+        it in the rows above, its own and below."""
+        return lane(lane(up_b) - lane(up_a) + lane(2) * (lane(mid_b) - lane(mid_a))
+                    + lane(down_b) - lane(down_a))
 
     @njit(**SERIAL)
     def clipped(value, cap):
@@ -48,11 +49,21 @@ def _make(lane):
             up, mid = image[max(y - 1, 0)], image[y]
             down, row = image[min(y + 1, height - 1)], out[y]
             # The edge columns take their own pixel in place of the missing neighbour.
-            row[0] = clipped(response(up, mid, down, 0, min(1, width - 1)), cap)
-            for x in range(1, width - 1):
-                row[x] = clipped(response(up, mid, down, x - 1, x + 1), cap)
+            b = min(1, width - 1)
+            row[0] = clipped(response(up[0], up[b], mid[0], mid[b], down[0], down[b]), cap)
+            # The inner columns through views from 0 (column x + 1 reads ul[x], up[x], and
+            # ur[x], up[x + 2]): an index x - 1 may be negative for all Numba knows, and
+            # its wraparound test at every access kept the loop from vectorising.
+            inner = width - 2
+            ul, ml, dl, ur, mr, dr = up[:inner], mid[:inner], down[:inner], up[2:], \
+                mid[2:], down[2:]
+            within = row[1:width - 1]
+            for x in range(inner):
+                within[x] = clipped(response(ul[x], ur[x], ml[x], mr[x], dl[x], dr[x]), cap)
             if width > 1:
-                row[width - 1] = clipped(response(up, mid, down, width - 2, width - 1), cap)
+                a, b = width - 2, width - 1
+                row[b] = clipped(response(up[a], up[b], mid[a], mid[b], down[a], down[b]),
+                                 cap)
         return 0
 
     return xsobel_rows
