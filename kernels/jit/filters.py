@@ -14,7 +14,7 @@ from numba import njit
 
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import lr_agrees
-from .options import SERIAL
+from .options import INLINE, SERIAL
 
 F32, I32, I64, U8, F64 = (np.dtype(t) for t in (np.float32, np.int32, np.int64, np.uint8,
                                                  np.float64))
@@ -268,7 +268,7 @@ def speckle(disp, small, parent, size, first, here, above, max_diff, edges, sc):
 # cost about 100 ns a pixel.
 
 
-@njit(**SERIAL)
+@njit(**INLINE)
 def sort_nine(a0, a1, a2, a3, a4, a5, a6, a7, a8):
     """The nine values in ascending order, by a network of 25 exchanges."""
     a0, a3 = min(a0, a3), max(a0, a3)
@@ -299,7 +299,7 @@ def sort_nine(a0, a1, a2, a3, a4, a5, a6, a7, a8):
     return a0, a1, a2, a3, a4, a5, a6, a7, a8
 
 
-@njit(**SERIAL)
+@njit(**INLINE)
 def sortable(v):
     """v, or +inf where v is NaN (invalid): after every valid value.  (NaN != NaN.)"""
     return v if v == v else np.float32(np.inf)
@@ -325,30 +325,51 @@ def median_at(disp, y, x, h, window):
 
 
 @njit(**SERIAL)
+def median_nine(up, row, down, out):
+    """out[x] for the inner columns of a row (x = 1 .. W - 2 of the map, 0 .. W - 3
+    here): the median of the valid pixels of the 3 x 3 window, by sort_nine with the
+    invalid ones as +inf (after every valid one), so that the median of the n + 1 valid
+    (n neighbours and the centre) is at n // 2; NaN where the centre is invalid.  The
+    arguments are views that start at the window's left column (up, row, down: (W - 2,)
+    from column 0, 1 and 2 of each row), indexed from 0, and the choice of the median
+    is made without a branch, so that the loop vectorises: with sort_nine and sortable
+    inlined, 1.4 ns a pixel, where a loop with branches took 10."""
+    for x in range(out.shape[0]):
+        a, b, c = up[0][x], up[1][x], up[2][x]
+        d, centre, e = row[0][x], row[1][x], row[2][x]
+        f, g, i = down[0][x], down[1][x], down[2][x]
+        n = (np.int32(a == a) + np.int32(b == b) + np.int32(c == c) + np.int32(d == d)
+             + np.int32(e == e) + np.int32(f == f) + np.int32(g == g) + np.int32(i == i))
+        s0, s1, s2, s3, s4, _, _, _, _ = sort_nine(
+            sortable(a), sortable(b), sortable(c), sortable(d), centre, sortable(e),
+            sortable(f), sortable(g), sortable(i))
+        k = n >> 1
+        value = s0 if k == 0 else s1 if k == 1 else s2 if k == 2 else s3 if k == 3 else s4
+        out[x] = value if centre == centre else np.float32(np.nan)
+
+
+@njit(**SERIAL)
 def median_valid(disp, out, window, sc):
     """out[y, x]: for each valid pixel, the median of the valid pixels in its size x size
     window (the lower middle for an even count); NaN for invalid pixels; rows y0 to y1
     (sc: MEDIAN).  window: (size * size,) scratch, kept sorted by insertion; a 3 x 3
-    window away from the map's edges is sorted by sort_nine, its invalid pixels as +inf
-    (after every valid one), so that the valid ones' median is at (valid - 1) // 2."""
+    window away from the map's edges goes through median_nine."""
     height, width = disp.shape
     size = sc[MEDIAN.size]
     h = size // 2
+    inner = width - 2
     for y in range(sc[MEDIAN.y0], sc[MEDIAN.y1]):
-        inner_row = size == 3 and 0 < y < height - 1
-        for x in range(width):
+        if size == 3 and 0 < y < height - 1 and inner > 0:
+            up, row, down = disp[y - 1], disp[y], disp[y + 1]
+            median_nine((up[:inner], up[1:inner + 1], up[2:]),
+                        (row[:inner], row[1:inner + 1], row[2:]),
+                        (down[:inner], down[1:inner + 1], down[2:]), out[y, 1:width - 1])
+            step = width - 1  # the two edge columns left
+        else:
+            step = 1
+        for x in range(0, width, step):
             if np.isnan(disp[y, x]):
                 out[y, x] = np.nan
-            elif inner_row and 0 < x < width - 1:
-                up, row, down = disp[y - 1, x - 1:x + 2], disp[y, x - 1:x + 2], \
-                    disp[y + 1, x - 1:x + 2]
-                n = 0
-                for v in (up[0], up[1], up[2], row[0], row[2], down[0], down[1], down[2]):
-                    n += v == v
-                values = sort_nine(sortable(up[0]), sortable(up[1]), sortable(up[2]),
-                                   sortable(row[0]), row[1], sortable(row[2]),
-                                   sortable(down[0]), sortable(down[1]), sortable(down[2]))
-                out[y, x] = values[n // 2]  # (n + 1 valid - 1) // 2, the centre valid
             else:
                 out[y, x] = median_at(disp, y, x, h, window)
     return 0

@@ -69,6 +69,17 @@ def test_a_3x3_median_with_infinities_and_edges_equals_the_oracle():
                                   oracle.median_valid(disp, 3))
 
 
+@pytest.mark.parametrize("holes", [0.0, 0.3, 0.9])
+def test_a_3x3_median_of_every_small_shape_equals_the_oracle(holes):
+    """The inner columns' vectorised pass (median_nine) and the edges' own, down to maps
+    with no inner column or row."""
+    rng = np.random.default_rng(5)
+    for shape in itertools.product(range(1, 6), range(1, 7)):
+        disp = random_map(rng, shape, levels=50, holes=holes)
+        np.testing.assert_array_equal(filters.median_valid(disp, 3),
+                                      oracle.median_valid(disp, 3))
+
+
 def test_median_of_a_frame_splits_its_rows_and_changes_nothing(monkeypatch):
     """A KITTI-size median is worth both threads: its stripes give the one-thread map."""
     disp = random_map(np.random.default_rng(5), (400, 800))
