@@ -96,3 +96,38 @@ def peak_memory_mb(options=()):
         out = subprocess.run([sys.executable, "-c", PEAK_PROBE, *cmd], check=True,
                              capture_output=True, text=True)
     return int(out.stdout.strip()) / 1024  # ru_maxrss is in KiB on Linux
+
+
+def outside_kernels(call, count):
+    """Milliseconds of each of ``count`` calls of ``call()`` spent outside the compiled
+    kernel entries' own calls (csw.kernels.native.Bound: the marshalling of their
+    arguments counts outside), and inside them: two lists.  One timing split in two, so
+    that the outside figure can't come out negative as a difference of two runs can."""
+    import time
+
+    from csw.kernels import native
+
+    inside = [0.0]
+    bound_call = native.Bound.__call__
+
+    def timed(self):
+        start = time.perf_counter()
+        try:
+            return bound_call(self)
+        finally:
+            inside[0] += time.perf_counter() - start
+
+    outside, kernels = [], []
+    native.Bound.__call__ = timed
+    try:
+        for _ in range(count):
+            inside[0] = 0.0
+            start = time.perf_counter()
+            call()
+            wall = time.perf_counter() - start
+            outside.append((wall - inside[0]) * 1e3)
+            kernels.append(inside[0] * 1e3)
+    finally:
+        native.Bound.__call__ = bound_call
+    return outside, kernels
+

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from report_common import cpu_name, fill_template, now_utc, spread
+from report_common import cpu_name, fill_template, now_utc, outside_kernels, spread
 
 # The user's alternative: read the pair, match with StereoBM, write a PFM.
 OPENCV_SCRIPT = """import sys
@@ -91,7 +91,7 @@ def main():
     for name, (left, right, dmax) in pairs.items():
         cv_args = [sys.executable, str(opencv), str(left), str(right),
                    str(work / "cv.pfm"), str(dmax)]
-        for preset in ("accurate", "raw", "paper"):
+        for preset in ("sgm", "accurate", "raw", "paper"):
             if preset == "paper" and dmax > 64:
                 continue  # the window engine's full sums take minutes at 1080p
             csw_args = [*CSW, "match", str(left), str(right), "-o", str(work / "d.pfm"),
@@ -160,26 +160,17 @@ def markdown(figures):
 
 
 def library_overhead(pairs):
-    """Milliseconds csw.match on arrays takes beyond the kernels' own call, warm, one
-    thread: 200 runs."""
+    """Milliseconds of csw.match on arrays beyond its kernels' own calls, warm, one
+    thread, the default preset: 200 runs."""
     import csw
-    from csw import kernels
     from csw.io import read_image
 
     left, right, _ = pairs["tsukuba (384x288, d 0..15)"]
     left, right = read_image(left), read_image(right)
-    bare = dict(engine="fast", window=9, dmin=0, dmax=15, cost="sad", threads=1)
-    csw.match(left, right, preset="raw", dmax=15, threads=1)
-    kernels.match(left, right, **bare)
-    diffs = []
-    for _ in range(200):
-        a = time.perf_counter()
-        csw.match(left, right, preset="raw", dmax=15, threads=1)
-        b = time.perf_counter()
-        kernels.match(left, right, **bare)
-        c = time.perf_counter()
-        diffs.append(((b - a) - (c - b)) * 1000)
-    return diffs
+    for _ in range(5):
+        csw.match(left, right, dmax=15, threads=1)
+    outside, _ = outside_kernels(lambda: csw.match(left, right, dmax=15, threads=1), 200)
+    return outside
 
 
 def imports():

@@ -23,13 +23,12 @@ import csw
 from csw.config.params import DEFAULTS
 from csw.data.synth import render
 from csw.io.images import luma
-from csw.kernels import native
 from csw.matching.matcher import STREAM_STRIPES_WORK
 from peers import cv2, ndisp16, stereo_bm
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "scripts"))
-from report_common import cpu_name, fill_template, now_utc, spread  # noqa: E402
+from report_common import cpu_name, fill_template, now_utc, outside_kernels, spread  # noqa: E402
 
 SIZES = [(320, 240, 31), (640, 480, 63), (1242, 375, 127)]
 DISTINCT = 12  # frames rendered per size, streamed over and over
@@ -177,38 +176,21 @@ def overhead_table(calls=300):
     """What Matcher.match costs beyond the time inside its kernel entries, on 320x240,
     per preset, and whether it equals csw.match bit for bit."""
     left, right = render(320, 240, 31, seed=7, phase=0.3)[:2]
-    inside = [0.0]
-    call = native.Bound.__call__  # the compiled entry's own call: marshalling is outside
-
-    def timed(self):
-        start = time.perf_counter()
-        try:
-            return call(self)
-        finally:
-            inside[0] += time.perf_counter() - start
-
     rows = []
-    native.Bound.__call__ = timed
-    try:
-        for preset in ("camera", "accurate", "raw", "paper"):
-            matcher = csw.Matcher(preset=preset, dmax=31, threads=1)
-            for _ in range(10):
-                matcher.match(left, right)
-            outside, kernels_ms = [], []
-            for _ in range(calls if preset != "paper" else calls // 15):  # paper: slow
-                inside[0] = 0.0
-                start = time.perf_counter()
-                result = matcher.match(left, right)
-                wall = time.perf_counter() - start
-                outside.append((wall - inside[0]) * 1e3)
-                kernels_ms.append(inside[0] * 1e3)
-            expected = csw.match(left, right, preset=preset, dmax=31, threads=1)
-            equal = bool(np.array_equal(result.disparity, expected.disparity, equal_nan=True)
-                         and np.array_equal(result.min_cost, expected.min_cost))
-            rows.append({"preset": preset, "outside_ms": outside,
-                         "kernels_ms": statistics.median(kernels_ms), "equal": equal})
-    finally:
-        native.Bound.__call__ = call
+    for preset in ("camera", "accurate", "raw", "paper"):
+        matcher = csw.Matcher(preset=preset, dmax=31, threads=1)
+        for _ in range(10):
+            matcher.match(left, right)
+        results = []
+        outside, kernels_ms = outside_kernels(
+            lambda: results.append(matcher.match(left, right)),  # noqa: B023
+            calls if preset != "paper" else calls // 15)  # paper: slow
+        result = results[-1]
+        expected = csw.match(left, right, preset=preset, dmax=31, threads=1)
+        equal = bool(np.array_equal(result.disparity, expected.disparity, equal_nan=True)
+                     and np.array_equal(result.min_cost, expected.min_cost))
+        rows.append({"preset": preset, "outside_ms": outside,
+                     "kernels_ms": statistics.median(kernels_ms), "equal": equal})
     return rows
 
 
