@@ -13,6 +13,7 @@ from pathlib import Path
 import psutil
 
 import csw
+from csw.config.params import DEFAULTS
 from csw.data.synth import render
 from csw.io import write_png
 from csw.scale.distributed import close, local_client
@@ -137,7 +138,8 @@ def markdown(runs, pairs, long_pairs, long, date, cpu, cores, version):
                   f"{long['at_end'] - long['at_2000']:+.1f} MB |"]
     return fill_template("batch", [("report", dict(
         date=date, cpu=cpu, cores=cores, version=version, pairs=pairs, width=SIZE[0],
-        height=SIZE[1], distinct=DISTINCT, dmax=DMAX, table="\n".join(table),
+        height=SIZE[1], distinct=DISTINCT, dmax=DMAX, preset=DEFAULTS["preset"],
+        table="\n".join(table),
         growth=("under 10% in every process (flat)." if flat else
                 "10% or more in some process: see the table."),
         long_pairs=long_pairs, long_table="\n".join(long_table)))])
