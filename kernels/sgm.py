@@ -20,7 +20,10 @@ paths' states carried to the next band; the bands are then made small enough to 
 in the caches (SINGLE_PASS_BAND_BYTES).  Every core works on one band at a time: the
 costs and the rows' last step split the band's rows, the vertical paths its columns
 (each column's path is its own); the diagonal paths cross columns and run in one thread.
-Results do not depend on the bands or the threads: every split computes the same sums.
+A band in one thread makes its vertical paths' rows within its other steps instead
+(fused, kernels/jit/sgm.py): the path down with the costs, the path up with the rows'
+winners, bottom to top.  Results do not depend on the bands or the threads: every split
+computes the same sums.
 
 Layers:
   match_sgm     public: validate, pad, choose the accumulator and the bands, run
@@ -296,23 +299,58 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                 direction=1, add=0, extras=2 if seconds else int(s.extras),
                 keep_right=int(s.right_map),
                 lr_limit=s.lr_check, keyed=int(keyed_range() > 0), starts=starts,
-                tile_rows=TILE_ROWS)
+                tile_rows=TILE_ROWS, fused=0)
     right_width = width + shift
     work_per_row = width * ndisp * 8
 
-    def rows_step(step, y0, y1, scratch):
-        """A step over the band's rows y0..y1, its rows split between the threads."""
-        count = min(n_threads, y1 - y0)
+    def one_thread(y0, y1):
+        """Whether a band's steps run in one thread (each is then fused with a vertical
+        path, kernels/jit/sgm.py)."""
+        return n_threads == 1 or (y1 - y0) * work_per_row < STEP_DIRECT_WORK
+
+    def rows_step(step, y0, y1, scratch, **path):
+        """A step over the band's rows y0..y1, its rows split between the threads; or
+        given a vertical ``path`` (its state and mins, and the costs' add), in one
+        thread, fused with that path."""
+        count = 1 if path else min(n_threads, y1 - y0)
         work = (y1 - y0) * work_per_row
         if work < STEP_DIRECT_WORK:
             count = 1
         edges = y0 + runtime.even_split(y1 - y0, count)
 
         def stripe(i, stop):
-            return run(**dict(base, **scratch(), step=step, y0=int(edges[i]),
-                              y1=int(edges[i + 1]), band_y0=y0, stop=stop))
+            return run(**dict(base, **scratch(), **path, fused=int(bool(path)), step=step,
+                              y0=int(edges[i]), y1=int(edges[i + 1]), band_y0=y0,
+                              stop=stop))
 
         runtime.run_stripes(stripe, count, count, work, STEP_DIRECT_WORK)
+
+    def costs_and_down(y0, y1, add):
+        """The band's costs and the vertical path down through them (add: as vertical's)."""
+        if one_thread(y0, y1):
+            rows_step(COSTS, y0, y1, cost_scratch, state=down, mins=down_mins, add=add)
+        else:
+            rows_step(COSTS, y0, y1, cost_scratch)
+            vertical(y0, y1, down, down_mins, 1, add)
+
+    def both_diagonals(y0, y1):
+        """The band's four diagonal paths (8 paths), adding into its sums."""
+        diagonal(y0, y1, ((down_l, down_l_mins), (down_r, down_r_mins)), 1, 1)
+        diagonal(y0, y1, ((up_l, up_l_mins), (up_r, up_r_mins)), -1, 1)
+
+    def up_and_select(y0, y1, before_select=None):
+        """The vertical path up through the band, adding into its sums, and the rows'
+        paths and winners; before_select(y0, y1): what else must add into the sums
+        first."""
+        fused = one_thread(y0, y1)
+        if not fused:
+            vertical(y0, y1, up, up_mins, -1, 1)
+        if before_select is not None:
+            before_select(y0, y1)
+        if fused:
+            rows_step(SELECT, y0, y1, select_scratch, state=up, mins=up_mins)
+        else:
+            rows_step(SELECT, y0, y1, select_scratch)
 
     def cost_scratch():
         # Hamming costs' ring of the window's rows (kernels/jit/sgm.py): w x Wp x D bytes;
@@ -360,14 +398,12 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         up, each band's paths and winners (see above)."""
         kept = {}  # band start -> the down paths' states entering the band
         for y0, y1 in bands[:-1]:  # pass 1
-            rows_step(COSTS, y0, y1, cost_scratch)
-            vertical(y0, y1, down, down_mins, 1, 2)
+            costs_and_down(y0, y1, 2)
             if diagonals:
                 diagonal(y0, y1, ((down_l, down_l_mins), (down_r, down_r_mins)), 1, 2)
             kept[y1] = [a[0].copy() for a in ((down, down_mins) + (
                 (down_l, down_l_mins, down_r, down_r_mins) if diagonals else ()))]
         for y0, y1 in reversed(bands):  # pass 2
-            rows_step(COSTS, y0, y1, cost_scratch)
             if y0 in kept:
                 states = (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
                                               if diagonals else ())
@@ -379,17 +415,12 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                 for array in (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
                                                   if diagonals else ()):
                     _reset(array, pad)
-            vertical(y0, y1, down, down_mins, 1, 0)
-            vertical(y0, y1, up, up_mins, -1, 1)
-            if diagonals:
-                diagonal(y0, y1, ((down_l, down_l_mins), (down_r, down_r_mins)), 1, 1)
-                diagonal(y0, y1, ((up_l, up_l_mins), (up_r, up_r_mins)), -1, 1)
-            rows_step(SELECT, y0, y1, select_scratch)
+            costs_and_down(y0, y1, 0)
+            up_and_select(y0, y1, both_diagonals if diagonals else None)
 
     if single_pass:  # the states go down from band to band
         for y0, y1 in bands:
-            rows_step(COSTS, y0, y1, cost_scratch)
-            vertical(y0, y1, down, down_mins, 1, 0)
+            costs_and_down(y0, y1, 0)
             diagonal(y0, y1, ((down_l, down_l_mins), (down_r, down_r_mins)), 1, 1)
             rows_step(SELECT, y0, y1, select_scratch)
     else:

@@ -17,9 +17,15 @@ taken from S as the fast engine takes them from C.
 
 One entry per variant, its step chosen by a scalar (one compile, not five):
   COSTS      the window costs of image rows y0 <= y < y1 into the band's cost slab
+             (fused: with each row's step of the vertical path down)
   VERTICAL   a vertical path over the band's rows, for the columns x0 <= x < x1
   DIAGONAL   the two diagonal paths going down, or up, over the band's rows
   SELECT     the two horizontal paths of rows y0 <= y < y1, then each pixel's winner
+             (fused: the rows going up, each with its step of the vertical path up)
+
+A fused step makes a vertical path's row while the row's costs and sums are in the
+caches, rather than in a pass of its own over the slabs, which reads them from memory:
+one thread's way through a band (kernels/sgm.py).
 
 Path states: state (2, W, D + 2) two buffers of each column's L along a vertical or
 diagonal path (the row before and the row being made), with a sentinel (``big``) at both
@@ -51,7 +57,7 @@ AHEAD = 4
 
 SC = scalar_index(("step", "window", "dmin", "p1", "p2", "cmax", "never", "y0", "y1",
                    "band_y0", "x0", "x1", "direction", "add", "extras", "keep_right",
-                   "lr_limit", "keyed", "tile_rows"))
+                   "lr_limit", "keyed", "tile_rows", "fused"))
 
 
 
@@ -93,6 +99,9 @@ def _make(cost, cost_type, acc, negative, banded):
     # 16-bit lanes: which is faster depends on the CPU (kernels/fast.py, keyed_range),
     # so the scalar "keyed" chooses, and both ways are compiled.
     may_key = acc == np.uint16
+    # Elements a cache line: the prefetches' steps, constants here (an array's itemsize
+    # is read at run time, and the range's length then takes two divisions a pixel).
+    sum_line, cost_line = 64 // np.dtype(acc).itemsize, 64 // np.dtype(cost_type).itemsize
 
     @njit(**SERIAL)
     def psi(a, b):
@@ -247,9 +256,12 @@ def _make(cost, cost_type, acc, negative, banded):
 
     @njit(**SERIAL)
     def cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, row_costs, spans,
-                  starts, sc, stop):
+                  starts, sums, state, mins, sc, stop):
         """costs[y - band_y0, x, k] = C(y, x, dmin + k) for rows y0 <= y < y1: column
         sums moved down the rows, row sums slid along each row (kernels/jit/fast.py).
+        fused 1: each row's step of the vertical path down (state, mins; add as for
+        vertical) follows its costs, while they are in the caches; y0 is then the band's
+        first row and every column is made.
         A banded variant with a window works in tiles of rows (sc[tile_rows]): each
         column's sums cover only the slots its pixels search in the tile (tile_spans),
         and each pixel sums its own slots (band_row).  With a window of 1 it makes each
@@ -259,6 +271,8 @@ def _make(cost, cost_type, acc, negative, banded):
         y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
         width = costs.shape[1]
         ndisp = col_sums.shape[1]
+        fused, add = sc[SC.fused] != 0, sc[SC.add]
+        p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
         if w == 1:  # each pixel's own cost: no sums to move
             wr = right_rev.shape[1]
             for y in range(y0, y1):
@@ -280,6 +294,11 @@ def _make(cost, cost_type, acc, negative, banded):
                         c[k] = cmax
                 if banded:
                     gather(out, costs[y - band_y0], starts[y])
+                if fused:
+                    vertical_row(costs, sums, state, mins, starts, y - y0, y, True,
+                                 band_y0, 0, width, add, p1, p2, never)
+            if fused:
+                vertical_end(state, mins, y1 - y0, 0, width)
             return 0
         tile = sc[SC.tile_rows] if banded else max(y1 - y0, 1)
         if not banded:
@@ -306,6 +325,9 @@ def _make(cost, cost_type, acc, negative, banded):
                 if banded:
                     band_row(col_sums, row_sums, costs[y - band_y0], starts[y], w, dmin,
                              cmax)
+                    if fused:
+                        vertical_row(costs, sums, state, mins, starts, y - y0, y, True,
+                                     band_y0, 0, width, add, p1, p2, never)
                     continue
                 row_sums[:] = 0
                 for b in range(w - 1):
@@ -314,7 +336,7 @@ def _make(cost, cost_type, acc, negative, banded):
                         row_sums[k] = row_sums[k] + s[k]
                 out = costs[y - band_y0]
                 for x in range(width):
-                    add = col_sums[x + w - 1]
+                    entering = col_sums[x + w - 1]
                     sub = col_sums[x - 1] if x > 0 else col_sums[0]
                     c = out[x]
                     # Candidates: d <= x and x - d <= width - 1 (k in lo..n - 1).
@@ -322,9 +344,14 @@ def _make(cost, cost_type, acc, negative, banded):
                     lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
                     keep = 1 if x > 0 else 0  # column 0 is not yet in the sums at x = 0
                     for k in range(ndisp):
-                        v = acc(row_sums[k] + add[k] - sub[k] * keep)
+                        v = acc(row_sums[k] + entering[k] - sub[k] * keep)
                         row_sums[k] = v
                         c[k] = cost_type(v) if lo <= k < n else cmax
+                if fused:
+                    vertical_row(costs, sums, state, mins, starts, y - y0, y, True,
+                                 band_y0, 0, width, add, p1, p2, never)
+        if fused:
+            vertical_end(state, mins, y1 - y0, 0, width)
         return 0
 
     @njit(**INLINE)
@@ -408,6 +435,40 @@ def _make(cost, cost_type, acc, negative, banded):
         mins[0, x] = mins[1, x]
 
     @njit(**SERIAL)
+    def vertical_row(costs, sums, state, mins, starts, i, y, down, band_y0, x0, x1, add,
+                     p1, p2, never):
+        """Image row y's step of a vertical path down (``down``) or up, the i-th of its
+        run (buffer i % 2 holds the row before, 1 - i % 2 takes this one), columns x0 <=
+        x < x1; adds into sums (add 0: assigns, 2: leaves them, for the state alone)."""
+        slots = costs.shape[2]
+        pad = pad_of(slots)
+        before, after = i % 2, 1 - i % 2
+        row = costs[y - band_y0]
+        band_sums = sums[y - band_y0] if add < 2 else sums[0]
+        if banded:
+            y_before = y - 1 if down else y + 1  # none: a fresh state, no shift
+            has_before = 0 <= y_before < starts.shape[0]
+            for x in range(x0, x1):
+                shift = starts[y, x] - starts[y_before, x] if has_before else 0
+                mins[after, x] = path_step_into(
+                    shifted(state[before, x], shift, slots, pad), mins[before, x],
+                    row[x], shifted(state[after, x], 0, slots, pad), band_sums[x], add,
+                    p1, p2, never)
+            return
+        for x in range(x0, x1):
+            mins[after, x] = path_step_into(state[before, x], mins[before, x], row[x],
+                                            state[after, x], band_sums[x], add, p1, p2,
+                                            never)
+
+    @njit(**SERIAL)
+    def vertical_end(state, mins, rows, x0, x1):
+        """After a run of ``rows`` vertical steps: the last row's state back into buffer
+        0 (where an odd run left it in buffer 1)."""
+        if rows % 2:
+            for x in range(x0, x1):
+                copy_state(state, mins, x)
+
+    @njit(**SERIAL)
     def vertical(costs, sums, state, mins, starts, sc, stop):
         """The vertical path down (direction 1) or up (-1) over the band's rows y0 <=
         y < y1 (image rows; the slabs start at band_y0), columns x0 <= x < x1, from the
@@ -419,32 +480,13 @@ def _make(cost, cost_type, acc, negative, banded):
         x0, x1, add = sc[SC.x0], sc[SC.x1], sc[SC.add]
         down = sc[SC.direction] > 0
         rows = y1 - y0
-        slots = costs.shape[2]
-        pad = pad_of(slots)
         for i in range(rows):
             if stop_requested(stop):
                 return 0
             y = y0 + i if down else y1 - 1 - i
-            before, after = i % 2, 1 - i % 2
-            row = costs[y - band_y0]
-            band_sums = sums[y - band_y0] if add < 2 else sums[0]
-            if banded:
-                y_before = y - 1 if down else y + 1  # none: a fresh state, no shift
-                has_before = 0 <= y_before < starts.shape[0]
-                for x in range(x0, x1):
-                    shift = starts[y, x] - starts[y_before, x] if has_before else 0
-                    mins[after, x] = path_step_into(
-                        shifted(state[before, x], shift, slots, pad), mins[before, x],
-                        row[x], shifted(state[after, x], 0, slots, pad), band_sums[x], add,
-                        p1, p2, never)
-                continue
-            for x in range(x0, x1):
-                mins[after, x] = path_step_into(state[before, x], mins[before, x], row[x],
-                                                state[after, x], band_sums[x], add, p1, p2,
-                                                never)
-        if rows % 2:  # the last row's state back into buffer 0
-            for x in range(x0, x1):
-                copy_state(state, mins, x)
+            vertical_row(costs, sums, state, mins, starts, i, y, down, band_y0, x0, x1,
+                         add, p1, p2, never)
+        vertical_end(state, mins, rows, x0, x1)
         return 0
 
     @njit(**SERIAL)
@@ -496,11 +538,14 @@ def _make(cost, cost_type, acc, negative, banded):
 
     @njit(**SERIAL)
     def select_rows(costs, sums, line, right_best_rev, right_rev_d, disp, min_cost,
-                    second, prev, nxt, right_disp, lr_valid, starts, sc, stop):
+                    second, prev, nxt, right_disp, lr_valid, starts, state, mins, sc,
+                    stop):
         """For rows y0 <= y < y1: the path from the right added into the row's sums,
         then the path from the left made on the way to each pixel's winner, second
         best, neighbours, and right map, and the row's left-right check (as the fast
-        engine's select_row)."""
+        engine's select_row).  fused 1: the rows go up from y1 - 1, each first taking
+        its step of the vertical path up (state, mins) into its sums, while they are in
+        the caches; y0..y1 is then the whole band, every column."""
         p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
         y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
         # extras 1: the neighbours' totals; 2: and the second best (kernels/sgm.py)
@@ -511,9 +556,14 @@ def _make(cost, cost_type, acc, negative, banded):
         pad = pad_of(ndisp)
         shift = -dmin if negative else 0
         keyed = sc[SC.keyed] != 0
-        for y in range(y0, y1):
+        fused = sc[SC.fused] != 0
+        for i_row in range(y1 - y0):
             if stop_requested(stop):
                 return 0
+            y = y1 - 1 - i_row if fused else y0 + i_row
+            if fused:
+                vertical_row(costs, sums, state, mins, starts, i_row, y, False, band_y0, 0,
+                             width, 1, p1, p2, never)
             row, total = costs[y - band_y0], sums[y - band_y0]
             # A path starts from a state of zeros with least 0: its first values are
             # then the costs themselves (min(0, P1, P2) = 0), with no branch.
@@ -528,9 +578,9 @@ def _make(cost, cost_type, acc, negative, banded):
                     b, a = shifted(b, moved, ndisp, pad), shifted(a, 0, ndisp, pad)
                 if x >= AHEAD:  # this path walks memory downwards: see prefetch
                     ahead_cost, ahead_sum = row[x - AHEAD], total[x - AHEAD]
-                    for k in range(0, ndisp, 64 // ahead_sum.itemsize):
+                    for k in range(0, ndisp, sum_line):
                         prefetch(ahead_sum, k)
-                    for k in range(0, ndisp, 64 // ahead_cost.itemsize):
+                    for k in range(0, ndisp, cost_line):
                         prefetch(ahead_cost, k)
                 least = path_step_into(b, least, row[x], a, total[x], 1, p1, p2, never)
             if track_right:
@@ -635,6 +685,8 @@ def _make(cost, cost_type, acc, negative, banded):
                         k = right_rev_d[width - 1 - x + d + shift]
                         back = invalid if k < 0 else dmin + k
                     lr_valid[y, x] = lr_agrees(d, back, lr_limit, invalid)
+        if fused:
+            vertical_end(state, mins, y1 - y0, 0, width)
         return 0
 
     @njit(**SERIAL)
@@ -644,12 +696,12 @@ def _make(cost, cost_type, acc, negative, banded):
         step = sc[SC.step]
         if step == COSTS:
             return cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, row_costs,
-                             spans, starts, sc, stop)
+                             spans, starts, sums, state, mins, sc, stop)
         if step == VERTICAL:
             return vertical(costs, sums, state, mins, starts, sc, stop)
         if step == DIAGONAL:
             return diagonal(costs, sums, state, mins, other, other_mins, starts, sc, stop)
         return select_rows(costs, sums, line, right_best, right_d, disp, min_cost, second,
-                           prev, nxt, right_disp, lr_valid, starts, sc, stop)
+                           prev, nxt, right_disp, lr_valid, starts, state, mins, sc, stop)
 
     return worker

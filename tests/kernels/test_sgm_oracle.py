@@ -59,7 +59,9 @@ def test_every_cost_window_and_path_count(cost, window, paths):
 @pytest.mark.parametrize("threads", [1, 2])
 def test_bands_and_threads_change_nothing(paths, threads, monkeypatch):
     """Bands of one, two and all rows, one thread or two: the same sums, bit for bit.
-    Every step is split between the threads, however small (sgm.STEP_DIRECT_WORK)."""
+    Every step is split between the threads, however small (sgm.STEP_DIRECT_WORK); one
+    thread makes the vertical paths within the costs and winners steps (fused), with
+    bands of odd and even heights."""
     monkeypatch.setattr(sgm, "STEP_DIRECT_WORK", 0)
     rng = np.random.default_rng(paths + threads)
     left, right = pair(rng, 11, 16)
