@@ -378,13 +378,20 @@ def _make(cost, cost_type, acc, negative, banded):
         ndisp = cost.shape[0]
         jump = acc(least + p2)
         best = never
-        keep = acc(add)
+        if add == 0:  # sums not read: a first path's slab rows come from memory
+            for k in range(ndisp):
+                v = min(min(before[k + 1], jump), acc(min(before[k], before[k + 2]) + p1))
+                value = acc(cost[k] + v - least)
+                after[k + 1] = value
+                best = min(best, value)
+                sums[k] = value
+            return best
         for k in range(ndisp):
             v = min(min(before[k + 1], jump), acc(min(before[k], before[k + 2]) + p1))
             value = acc(cost[k] + v - least)
             after[k + 1] = value
             best = min(best, value)
-            sums[k] = acc(sums[k] * keep + value)
+            sums[k] = acc(sums[k] + value)
         return best
 
     @njit(**INLINE)
