@@ -295,7 +295,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                 right_best=np.empty(1, acc), right_d=np.empty(1, np.int16),
                 disp=disp, min_cost=min_cost, second=maps[0], prev=maps[1], next=maps[2],
                 right_disp=maps[3], lr_valid=lr_valid, window=s.window, dmin=s.dmin,
-                p1=p1, p2=p2, cmax=cmax, never=never, y0=0, y1=0, band_y0=0, x0=0, x1=0,
+                p1=p1, p2=p2, cmax=cmax, never=never, y0=0, y1=0, band_y0=0, x0=0, x1=width,
                 direction=1, add=0, extras=2 if seconds else int(s.extras),
                 keep_right=int(s.right_map),
                 lr_limit=s.lr_check, keyed=int(keyed_range() > 0), starts=starts,
@@ -326,12 +326,22 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         runtime.run_stripes(stripe, count, count, work, STEP_DIRECT_WORK)
 
     def costs_and_down(y0, y1, add):
-        """The band's costs and the vertical path down through them (add: as vertical's)."""
+        """The band's costs and the vertical path down through them (add: as vertical's),
+        fused: in one thread, or with the band's columns split between the threads
+        (each column's path is its own; each thread sums w - 1 columns more)."""
         if one_thread(y0, y1):
             rows_step(COSTS, y0, y1, cost_scratch, state=down, mins=down_mins, add=add)
-        else:
-            rows_step(COSTS, y0, y1, cost_scratch)
-            vertical(y0, y1, down, down_mins, 1, add)
+            return
+        count = min(n_threads, width)
+        edges = runtime.even_split(width, count)
+
+        def stripe(i, stop):
+            return run(**dict(base, **cost_scratch(), state=down, mins=down_mins, add=add,
+                              fused=1, step=COSTS, y0=y0, y1=y1, band_y0=y0,
+                              x0=int(edges[i]), x1=int(edges[i + 1]), stop=stop))
+
+        runtime.run_stripes(stripe, count, count, (y1 - y0) * work_per_row,
+                            STEP_DIRECT_WORK)
 
     def both_diagonals(y0, y1):
         """The band's four diagonal paths (8 paths), adding into its sums."""

@@ -166,32 +166,36 @@ def _make(cost, cost_type, acc, negative, banded):
                     s[k] = s[k] + psi(lv, r[k]) - psi(lv_sub, r_sub[k])
 
     @njit(**SERIAL)
-    def whole_spans(spans, dmin, ndisp):
-        """Every column's candidates: k < ndisp and d = dmin + k <= j."""
+    def whole_spans(spans, dmin, ndisp, x0, x1, w):
+        """The candidates of the columns that pixels x0 <= x < x1 sum (x0 <= j < x1 + w
+        - 1): k < ndisp and d = dmin + k <= j; none for the others."""
         for j in range(spans.shape[1]):
             spans[0, j] = 0
-            spans[1, j] = max(min(ndisp, j - dmin + 1), 0)
+            spans[1, j] = max(min(ndisp, j - dmin + 1), 0) if x0 <= j < x1 + w - 1 else 0
 
     @njit(**SERIAL)
-    def tile_spans(starts, t0, t1, slots, w, dmin, ndisp, spans):
-        """A banded variant's column spans over image rows t0 <= y < t1: padded column j
-        is in the windows of pixels x = j - w + 1 .. j, so its sums are needed from the
-        least of their starts to the greatest start + slots (exclusive), candidates
-        only (d <= j).  starts: int32 (H, W); spans: int32 (2, Wp) out."""
-        width = starts.shape[1]
+    def tile_spans(starts, t0, t1, slots, w, dmin, ndisp, spans, x0, x1):
+        """A banded variant's column spans over image rows t0 <= y < t1, for pixels x0
+        <= x < x1: padded column j is in the windows of pixels x = j - w + 1 .. j, so
+        its sums are needed from the least of their starts to the greatest start + slots
+        (exclusive), candidates only (d <= j); none for columns no such pixel sums.
+        starts: int32 (H, W); spans: int32 (2, Wp) out."""
         low, high = spans[0], spans[1]
-        for x in range(width):
+        for x in range(x0, x1):
             low[x] = starts[t0, x]
             high[x] = starts[t0, x]
         for y in range(t0 + 1, t1):
             row = starts[y]
-            for x in range(width):
+            for x in range(x0, x1):
                 low[x] = min(low[x], row[x])
                 high[x] = max(high[x], row[x])
         # From the right, so that column j reads only pixels' entries (x <= j) not yet
         # overwritten by a column's.
         for j in range(spans.shape[1] - 1, -1, -1):
-            a, b = max(j - w + 1, 0), min(j, width - 1)
+            a, b = max(j - w + 1, x0), min(j, x1 - 1)
+            if a > b:  # no pixel of x0..x1 - 1 sums column j
+                low[j], high[j] = 0, 0
+                continue
             least, most = low[a], high[a]
             for x in range(a + 1, b + 1):
                 least = min(least, low[x])
@@ -200,20 +204,22 @@ def _make(cost, cost_type, acc, negative, banded):
             high[j] = max(min(most + slots, ndisp, j - dmin + 1), least)
 
     @njit(**SERIAL)
-    def gather(row, out, row_starts):
-        """A banded variant's slab row: out[x, k] = row[x, row_starts[x] + k], row being
-        the whole range's costs of the image row (cmax where d has no right pixel)."""
+    def gather(row, out, row_starts, x0, x1):
+        """A banded variant's slab row: out[x, k] = row[x, row_starts[x] + k], x0 <= x <
+        x1, row being the whole range's costs of the image row (cmax where d has no
+        right pixel)."""
         slots = out.shape[1]
-        for x in range(out.shape[0]):
+        for x in range(x0, x1):
             source = row[x, row_starts[x]:]
             target = out[x]
             for k in range(slots):
                 target[k] = source[k]
 
     @njit(**SERIAL)
-    def band_row(col_sums, row_sums, out, row_starts, w, dmin, cmax):
-        """A banded variant's slab row from the column sums: out[x, k] = C(y, x, dmin +
-        row_starts[x] + k), the sum of the window's w columns, or slid from pixel x - 1's
+    def band_row(col_sums, row_sums, out, row_starts, w, dmin, cmax, x0, x1):
+        """A banded variant's slab row from the column sums, pixels x0 <= x < x1: out[x,
+        k] = C(y, x, dmin + row_starts[x] + k), the sum of the window's w columns, or
+        slid from pixel x - 1's
         where that searched the same slots (two columns' work for w).  Columns' sums
         outside their spans hold stale values: they reach only slots that are not
         candidates (cmax), or cancel exactly in a slide (the same value added at x - 1
@@ -221,7 +227,7 @@ def _make(cost, cost_type, acc, negative, banded):
         width, slots = out.shape
         ndisp = col_sums.shape[1]
         previous = -1
-        for x in range(width):
+        for x in range(x0, x1):
             start = row_starts[x]
             if start == previous:
                 add = col_sums[x + w - 1, start:]
@@ -259,9 +265,10 @@ def _make(cost, cost_type, acc, negative, banded):
                   starts, sums, state, mins, sc, stop):
         """costs[y - band_y0, x, k] = C(y, x, dmin + k) for rows y0 <= y < y1: column
         sums moved down the rows, row sums slid along each row (kernels/jit/fast.py).
-        fused 1: each row's step of the vertical path down (state, mins; add as for
-        vertical) follows its costs, while they are in the caches; y0 is then the band's
-        first row and every column is made.
+        Pixels x0 <= x < x1 only (their columns' sums: w - 1 more).  fused 1: each
+        row's step of the vertical path down through those pixels (state, mins; add as
+        for vertical) follows its costs, while they are in the caches; y0 is then the
+        band's first row.
         A banded variant with a window works in tiles of rows (sc[tile_rows]): each
         column's sums cover only the slots its pixels search in the tile (tile_spans),
         and each pixel sums its own slots (band_row).  With a window of 1 it makes each
@@ -273,6 +280,7 @@ def _make(cost, cost_type, acc, negative, banded):
         ndisp = col_sums.shape[1]
         fused, add = sc[SC.fused] != 0, sc[SC.add]
         p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
+        x0, x1 = sc[SC.x0], sc[SC.x1]
         if w == 1:  # each pixel's own cost: no sums to move
             wr = right_rev.shape[1]
             for y in range(y0, y1):
@@ -280,7 +288,7 @@ def _make(cost, cost_type, acc, negative, banded):
                     return 0
                 out = row_costs if banded else costs[y - band_y0]
                 left, right = left_p[y], right_rev[y]
-                for x in range(width):
+                for x in range(x0, x1):
                     n = max(min(ndisp, x - dmin + 1), 0)
                     lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
                     c = out[x]
@@ -293,20 +301,20 @@ def _make(cost, cost_type, acc, negative, banded):
                     for k in range(n, ndisp):
                         c[k] = cmax
                 if banded:
-                    gather(out, costs[y - band_y0], starts[y])
+                    gather(out, costs[y - band_y0], starts[y], x0, x1)
                 if fused:
                     vertical_row(costs, sums, state, mins, starts, y - y0, y, True,
-                                 band_y0, 0, width, add, p1, p2, never)
+                                 band_y0, x0, x1, add, p1, p2, never)
             if fused:
-                vertical_end(state, mins, y1 - y0, 0, width)
+                vertical_end(state, mins, y1 - y0, x0, x1)
             return 0
         tile = sc[SC.tile_rows] if banded else max(y1 - y0, 1)
         if not banded:
-            whole_spans(spans, dmin, ndisp)
+            whole_spans(spans, dmin, ndisp, x0, x1, w)
         for t0 in range(y0, y1, tile):
             t1 = min(t0 + tile, y1)
             if banded:
-                tile_spans(starts, t0, t1, costs.shape[2], w, dmin, ndisp, spans)
+                tile_spans(starts, t0, t1, costs.shape[2], w, dmin, ndisp, spans, x0, x1)
             for j in range(col_sums.shape[0]):
                 s = col_sums[j, spans[0, j]:]
                 for k in range(spans[1, j] - spans[0, j]):
@@ -324,34 +332,34 @@ def _make(cost, cost_type, acc, negative, banded):
                                 ring[(y - 1) % w if ringed else 0], spans)
                 if banded:
                     band_row(col_sums, row_sums, costs[y - band_y0], starts[y], w, dmin,
-                             cmax)
+                             cmax, x0, x1)
                     if fused:
                         vertical_row(costs, sums, state, mins, starts, y - y0, y, True,
-                                     band_y0, 0, width, add, p1, p2, never)
+                                     band_y0, x0, x1, add, p1, p2, never)
                     continue
                 row_sums[:] = 0
-                for b in range(w - 1):
+                for b in range(x0, x0 + w - 1):
                     s = col_sums[b]
                     for k in range(ndisp):
                         row_sums[k] = row_sums[k] + s[k]
                 out = costs[y - band_y0]
-                for x in range(width):
+                for x in range(x0, x1):
                     entering = col_sums[x + w - 1]
-                    sub = col_sums[x - 1] if x > 0 else col_sums[0]
+                    sub = col_sums[x - 1] if x > x0 else col_sums[0]
                     c = out[x]
                     # Candidates: d <= x and x - d <= width - 1 (k in lo..n - 1).
                     n = max(min(ndisp, x - dmin + 1), 0)
                     lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
-                    keep = 1 if x > 0 else 0  # column 0 is not yet in the sums at x = 0
+                    keep = 1 if x > x0 else 0  # column x0 is not yet in the sums at x0
                     for k in range(ndisp):
                         v = acc(row_sums[k] + entering[k] - sub[k] * keep)
                         row_sums[k] = v
                         c[k] = cost_type(v) if lo <= k < n else cmax
                 if fused:
                     vertical_row(costs, sums, state, mins, starts, y - y0, y, True,
-                                 band_y0, 0, width, add, p1, p2, never)
+                                 band_y0, x0, x1, add, p1, p2, never)
         if fused:
-            vertical_end(state, mins, y1 - y0, 0, width)
+            vertical_end(state, mins, y1 - y0, x0, x1)
         return 0
 
     @njit(**INLINE)

@@ -59,16 +59,18 @@ def test_every_cost_window_and_path_count(cost, window, paths):
 @pytest.mark.parametrize("threads", [1, 2])
 def test_bands_and_threads_change_nothing(paths, threads, monkeypatch):
     """Bands of one, two and all rows, one thread or two: the same sums, bit for bit.
-    Every step is split between the threads, however small (sgm.STEP_DIRECT_WORK); one
-    thread makes the vertical paths within the costs and winners steps (fused), with
-    bands of odd and even heights."""
+    Every step is split between the threads, however small (sgm.STEP_DIRECT_WORK): two
+    split the costs' columns, each making its columns' path down with them (fused);
+    one thread makes the vertical paths within the costs and winners steps; bands of
+    odd and even heights."""
     monkeypatch.setattr(sgm, "STEP_DIRECT_WORK", 0)
     rng = np.random.default_rng(paths + threads)
     left, right = pair(rng, 11, 16)
-    kw = dict(window=3, dmin=0, dmax=6, cost="sad", paths=paths, p1=40, p2=300)
     row = one_row_bands(left, 0, 6)
-    for band_bytes in (row, 2 * row + 1, 5 * row, None):
-        assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
+    for window in (1, 3):  # two threads split the costs' columns: with and without sums
+        kw = dict(window=window, dmin=0, dmax=6, cost="sad", paths=paths, p1=40, p2=300)
+        for band_bytes in (row, 2 * row + 1, 5 * row, None):
+            assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
 
 
 def test_a_taller_bottom_band_changes_nothing(monkeypatch):
@@ -114,11 +116,12 @@ def test_narrowed_search_bands_and_threads_change_nothing(threads, monkeypatch):
     rng = np.random.default_rng(threads + 40)
     left, right = pair(rng, 11, 16)
     starts = random_starts(rng, left.shape, 10, 4)
-    kw = dict(window=3, dmin=0, dmax=9, cost="sad", paths=8, p1=40, p2=300,
-              starts=starts, slots=4)
     row = one_row_bands(left, 0, 3)
-    for band_bytes in (row, 2 * row + 1, 5 * row, None):
-        assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
+    for window in (1, 3):
+        kw = dict(window=window, dmin=0, dmax=9, cost="sad", paths=8, p1=40, p2=300,
+                  starts=starts, slots=4)
+        for band_bytes in (row, 2 * row + 1, 5 * row, None):
+            assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
 
 
 @pytest.mark.parametrize("window", [3, 5])
