@@ -18,12 +18,11 @@ diagonals going down, OpenCV's MODE_SGBM's) every path comes from above or along
 row, so one sweep down does it all: each band's costs, its paths and its winners, the
 paths' states carried to the next band; the bands are then made small enough to stay
 in the caches (SINGLE_PASS_BAND_BYTES).  Every core works on one band at a time: the
-costs and the rows' last step split the band's rows, the vertical paths its columns
-(each column's path is its own); the diagonal paths cross columns and run in one thread.
-A band in one thread makes its vertical paths' rows within its other steps instead
-(fused, kernels/jit/sgm.py): the path down with the costs, the path up with the rows'
-winners, bottom to top.  Results do not depend on the bands or the threads: every split
-computes the same sums.
+costs split the band's columns, each block's path down made with them row by row
+(fused, kernels/jit/sgm.py: each column's path is its own), the path up its columns,
+the rows' last step its rows; the diagonal paths cross columns and run in one thread.
+A band in one thread also makes its path up within the last step, the rows going up.
+Results do not depend on the bands or the threads: every split computes the same sums.
 
 Layers:
   match_sgm     public: validate, pad, choose the accumulator and the bands, run
