@@ -303,7 +303,7 @@ def _make(cost, cost_type, acc, negative, banded):
                 if banded:
                     gather(out, costs[y - band_y0], starts[y], x0, x1)
                 if fused:
-                    vertical_row(costs, sums, state, mins, starts, y - y0, y, True,
+                    vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
                                  band_y0, x0, x1, add, p1, p2, never)
             if fused:
                 vertical_end(state, mins, y1 - y0, x0, x1)
@@ -334,8 +334,8 @@ def _make(cost, cost_type, acc, negative, banded):
                     band_row(col_sums, row_sums, costs[y - band_y0], starts[y], w, dmin,
                              cmax, x0, x1)
                     if fused:
-                        vertical_row(costs, sums, state, mins, starts, y - y0, y, True,
-                                     band_y0, x0, x1, add, p1, p2, never)
+                        vertical_row(costs, sums, state, mins, starts, y - y0, y,
+                                     np.int64(1), band_y0, x0, x1, add, p1, p2, never)
                     continue
                 row_sums[:] = 0
                 for b in range(x0, x0 + w - 1):
@@ -356,7 +356,7 @@ def _make(cost, cost_type, acc, negative, banded):
                         row_sums[k] = v
                         c[k] = cost_type(v) if lo <= k < n else cmax
                 if fused:
-                    vertical_row(costs, sums, state, mins, starts, y - y0, y, True,
+                    vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
                                  band_y0, x0, x1, add, p1, p2, never)
         if fused:
             vertical_end(state, mins, y1 - y0, x0, x1)
@@ -450,11 +450,14 @@ def _make(cost, cost_type, acc, negative, banded):
         mins[0, x] = mins[1, x]
 
     @njit(**SERIAL)
-    def vertical_row(costs, sums, state, mins, starts, i, y, down, band_y0, x0, x1, add,
-                     p1, p2, never):
-        """Image row y's step of a vertical path down (``down``) or up, the i-th of its
-        run (buffer i % 2 holds the row before, 1 - i % 2 takes this one), columns x0 <=
-        x < x1; adds into sums (add 0: assigns, 2: leaves them, for the state alone)."""
+    def vertical_row(costs, sums, state, mins, starts, i, y, direction, band_y0, x0, x1,
+                     add, p1, p2, never):
+        """Image row y's step of a vertical path down (direction 1) or up (-1), the i-th
+        of its run (buffer i % 2 holds the row before, 1 - i % 2 takes this one), columns
+        x0 <= x < x1; adds into sums (add 0: assigns, 2: leaves them, for the state
+        alone).  Numba compiles a function again for each set of constants it is called
+        with, so the costs step passes int64s, as vertical does: one compile for both."""
+        down = direction > 0
         slots = costs.shape[2]
         pad = pad_of(slots)
         before, after = i % 2, 1 - i % 2
@@ -499,8 +502,8 @@ def _make(cost, cost_type, acc, negative, banded):
             if stop_requested(stop):
                 return 0
             y = y0 + i if down else y1 - 1 - i
-            vertical_row(costs, sums, state, mins, starts, i, y, down, band_y0, x0, x1,
-                         add, p1, p2, never)
+            vertical_row(costs, sums, state, mins, starts, i, y, sc[SC.direction], band_y0,
+                         x0, x1, add, p1, p2, never)
         vertical_end(state, mins, rows, x0, x1)
         return 0
 
@@ -577,7 +580,9 @@ def _make(cost, cost_type, acc, negative, banded):
                 return 0
             y = y1 - 1 - i_row if fused else y0 + i_row
             if fused:
-                vertical_row(costs, sums, state, mins, starts, i_row, y, False, band_y0, 0,
+                # Constants (its own compile, the path's adding step alone in it): with
+                # int64s here the winners step took 7% longer.
+                vertical_row(costs, sums, state, mins, starts, i_row, y, -1, band_y0, 0,
                              width, 1, p1, p2, never)
             row, total = costs[y - band_y0], sums[y - band_y0]
             # A path starts from a state of zeros with least 0: its first values are
