@@ -309,8 +309,8 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
 
     def rows_step(step, y0, y1, scratch, **path):
         """A step over the band's rows y0..y1, its rows split between the threads; or
-        given a vertical ``path`` (its state and mins, and the costs' add), in one
-        thread, fused with that path."""
+        given the vertical ``path`` up (its state and mins), in one thread, fused with
+        that path."""
         count = 1 if path else min(n_threads, y1 - y0)
         work = (y1 - y0) * work_per_row
         if work < STEP_DIRECT_WORK:
@@ -326,12 +326,9 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
 
     def costs_and_down(y0, y1, add):
         """The band's costs and the vertical path down through them (add: as vertical's),
-        fused: in one thread, or with the band's columns split between the threads
-        (each column's path is its own; each thread sums w - 1 columns more)."""
-        if one_thread(y0, y1):
-            rows_step(COSTS, y0, y1, cost_scratch, state=down, mins=down_mins, add=add)
-            return
-        count = min(n_threads, width)
+        fused, the band's columns split between the threads (each column's path is its
+        own; each thread sums w - 1 columns more)."""
+        count = 1 if one_thread(y0, y1) else min(n_threads, width)
         edges = runtime.even_split(width, count)
 
         def stripe(i, stop):
