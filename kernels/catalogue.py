@@ -32,7 +32,7 @@ LARGEST_WINDOW = 31
 IMAGE_TYPES = (np.dtype(np.uint8), np.dtype(np.uint16))
 LARGEST_CENSUS_WINDOW = 15
 FILTER_KINDS = ("lr", "winners", "speckle", "median", "fill", "float", "subpixel",
-                "confidence")  # jit/filters.py
+                "confidence", "starts")  # jit/filters.py
 # The costs the engines' workers compute (psi in jit/fast.py and jit/sgm.py, window_cost
 # in jit/window.py): each cost of kernels/costs.py runs as one of them.  The workers
 # treat any other name as shd, so spec_of refuses it.

@@ -250,3 +250,33 @@ def fill_background(disp, threads=None):
     out = np.empty_like(disp)
     _by_rows("fill", dict(disp=disp, out=out), disp.shape[0], threads=threads)
     return out
+
+
+def narrow_starts(disp, valid, shape, offset, ndisp, slots, base, margin, threads=None,
+                  out=None):
+    """int32 ``shape`` (H, W): the narrowed semi-global search's starts from its
+    half-size match (csw.matching.narrow.starts defines them; the worker in
+    kernels/jit/filters.py), each full-size pixel's from its half-size pixel (min(Y // 2,
+    h - 1), min(X // 2, w - 1)).
+
+    disp: int32 (h, w), the half-size match; valid: bool or uint8 (h, w), its left-right
+    check; offset: the half range's start; ndisp: the full range's size; slots: K;
+    base, margin: the full-size offset of the half range's start and the disparities
+    added each side of a doubled span.  out: an int32 ``shape`` array to write into."""
+    disp = np.ascontiguousarray(disp, np.int32)
+    valid = np.ascontiguousarray(valid).view(np.uint8)
+    height, width = disp.shape
+    if tuple(shape) != (height * 2 + shape[0] % 2, width * 2 + shape[1] % 2) or \
+            valid.shape != disp.shape or not 1 <= slots <= ndisp:
+        raise ValueError(f"starts of {tuple(shape)} from a {disp.shape} half-size match "
+                         f"with {slots} slots of {ndisp}: shapes or slots do not fit")
+    out = np.empty(shape, np.int32) if out is None else out
+    # About 3 ns a half-size pixel in one thread, its four full-size pixels written.
+    _by_rows("starts", dict(disp=disp, valid=valid, out=out, offset=int(offset),
+                            ndisp=int(ndisp), slots=int(slots), base=int(base),
+                            margin=int(margin)), height,
+             scratch={"low": lambda: np.empty((3, width), np.int32),
+                      "high": lambda: np.empty((3, width), np.int32),
+                      "rows": lambda: np.empty((3, width), np.int32)},
+             threads=threads, per_pixel=12)
+    return out

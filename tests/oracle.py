@@ -387,3 +387,58 @@ def sgm_match(left, right, window, dmin, dmax, cost, paths, p1, p2, census_windo
             record(ds, [int(total[y, x, d - first]) for d in ds], y, x, disp, mins, more,
                    seen)
     return disp, mins, more
+
+
+def row_spans(disp, valid):
+    """(low, high) (h, w): each pixel's match where valid, else the row's nearest valid
+    matches left and right of it (their least and greatest; one side if only one has
+    any); -1 where its row has none.  disp holds no negatives."""
+    h, w = disp.shape
+    cols = np.arange(w, dtype=np.int32)
+    before = np.maximum.accumulate(np.where(valid, cols, -1), axis=1)
+    after = np.minimum.accumulate(np.where(valid, cols, w)[:, ::-1], axis=1)[:, ::-1]
+    left = np.take_along_axis(disp, np.maximum(before, 0), axis=1)
+    right = np.take_along_axis(disp, np.minimum(after, w - 1), axis=1)
+    left[before < 0] = -1
+    right[after >= w] = -1
+    low = np.where(left < 0, right, np.where(right < 0, left, np.minimum(left, right)))
+    high = np.maximum(left, right)
+    return low, high
+
+
+def neighbourhood(values, reduce):
+    """values (h, w) reduced over each pixel's 3 x 3 neighbourhood (edges repeated);
+    reduce: np.minimum or np.maximum."""
+    padded = np.pad(values, 1, mode="edge")
+    rows = reduce(reduce(padded[:-2], padded[1:-1]), padded[2:])
+    return reduce(reduce(rows[:, :-2], rows[:, 1:-1]), rows[:, 2:])
+
+
+def narrow_starts(disp, valid, shape, dmin, ndisp, slots, margin):
+    """The narrowed search's starts, int32 ``shape`` (H, W) in 0..ndisp - slots, from a
+    half-size match (csw.matching.narrow): disp int32 (h, w) over the half range, which
+    starts at dmin // 2; valid bool (h, w), its left-right check.  Each half-size pixel's
+    span is that of its 3 x 3 neighbourhood's row spans (row_spans), doubled and
+    ``margin`` wider each side; K = slots centred on it where it is at most K wide, else
+    centred on the pixel's own match (where it has none, the span's middle); 0 where the
+    neighbourhood has no match; each full-size pixel takes its half-size pixel's, the
+    last row and column of an odd size their neighbour's."""
+    height, width = shape
+    offsets = disp - np.int32(dmin // 2)
+    low, high = row_spans(offsets, valid)
+    found = low >= 0
+    low = neighbourhood(np.where(found, low, np.int32(2 * ndisp)), np.minimum)
+    high = neighbourhood(np.where(found, high, -1), np.maximum)
+    known = low <= high
+    own = np.where(valid, offsets, np.where(known, (low + high) // 2, 0))
+    base = 2 * (dmin // 2) - dmin  # full-size offset of the half range's start
+    first = 2 * low + base - margin
+    last = 2 * high + base + margin
+    span = last - first + 1
+    centred = first - (slots - span) // 2
+    on_own = 2 * own + base - slots // 2
+    start = np.where(span <= slots, centred, on_own)
+    start = np.clip(np.where(known, start, 0), 0, ndisp - slots).astype(np.int32)
+    ys = np.minimum(np.arange(height) // 2, start.shape[0] - 1)
+    xs = np.minimum(np.arange(width) // 2, start.shape[1] - 1)
+    return start[ys][:, xs]

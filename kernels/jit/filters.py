@@ -1,6 +1,7 @@
 """The post filters' workers (see kernels/filters.py): the left-right checks, speckle
 removal over regions of similar disparity (as OpenCV's filterSpeckles), a median over
-valid pixels only, and the background fill of the Middlebury and KITTI kits.
+valid pixels only, and the background fill of the Middlebury and KITTI kits; and the
+narrowed semi-global search's starts, from its half-size match.
 
 Maps are float32 (H, W) with NaN where invalid, save the left-right check's int32 maps.
 Row-local filters work on a stripe of rows (y0 <= y < y1) so that stripes run in
@@ -30,11 +31,12 @@ FILL = scalar_index(("y0", "y1"))
 FLOAT = scalar_index(("y0", "y1", "invalid", "checked"))
 SUBPIXEL = scalar_index(("y0", "y1", "linear"))
 CONFIDENCE = scalar_index(("y0", "y1"))
+STARTS = scalar_index(("y0", "y1", "offset", "ndisp", "slots", "base", "margin"))
 
 
 def spec(kind):
     """The worker of a filter: "lr", "winners", "speckle", "median", "fill", "float",
-    "subpixel" or "confidence"."""
+    "subpixel", "confidence" or "starts"."""
     workers = {
         # the left-right check of a stripe of rows
         "lr": (lr_consistent, (arg("disp", I32, 2), arg("right_disp", I32, 2),
@@ -67,6 +69,11 @@ def spec(kind):
         "confidence": (confidence_map, (arg("best", I64, 2), arg("second", I64, 2),
                                         arg("valid", U8, 2), arg("out", F32, 2)),
                        CONFIDENCE),
+        # disp, valid (h, w) the half-size match; low, high, rows (3, w) scratch of the
+        # stripe; out (H, W) the full-size starts
+        "starts": (narrow_starts, (arg("disp", I32, 2), arg("valid", U8, 2),
+                                   arg("low", I32, 2), arg("high", I32, 2),
+                                   arg("rows", I32, 2), arg("out", I32, 2)), STARTS),
     }
     worker, arrays, scalars = workers[kind]
     return Spec(worker, Signature(arrays, scalars._fields))
@@ -474,4 +481,79 @@ def confidence_map(best, second, valid, out, sc):
             if valid[y, x] != 0 and s > 0:
                 ratio = np.float64(s - best[y, x]) / np.float64(s)
             out[y, x] = np.float32(ratio)
+    return 0
+
+
+@njit(**SERIAL)
+def _row_spans(disp, valid, y, offset, none, low, high):
+    """low, high (w,) = half-size row y's spans (csw.matching.narrow.starts): each pixel's
+    match (disp - offset) where valid, else the least and the greatest of the row's
+    nearest valid matches on either side (one side's where only one has any); where the
+    row has none, low = ``none`` and high = -1."""
+    width = disp.shape[1]
+    last = -1
+    for x in range(width):  # the nearest match at or left of x, in low
+        if valid[y, x] != 0:
+            last = disp[y, x] - offset
+        low[x] = last
+    last = -1
+    for x in range(width - 1, -1, -1):  # and at or right of x
+        if valid[y, x] != 0:
+            last = disp[y, x] - offset
+        left = low[x]
+        least = last if left < 0 else (left if last < 0 else min(left, last))
+        low[x] = none if least < 0 else least
+        high[x] = -1 if least < 0 else max(left, last)
+
+
+@njit(**SERIAL)
+def narrow_starts(disp, valid, low, high, rows, out, sc):
+    """The narrowed search's starts (csw.matching.narrow.starts, which defines them)
+    from a half-size match, for the half-size rows y0 <= y < y1 (sc: STARTS): out[Y, X]
+    for every full-size pixel whose half-size pixel (min(Y // 2, h - 1), min(X // 2,
+    w - 1)) lies in those rows.  offset: the half range's start (disp's d of offset 0);
+    ndisp: the full range's size; slots: K; base, margin: the full-size offset of the
+    half range's start, and the disparities added each side of a doubled span.
+
+    disp: int32 (h, w) the half-size match; valid: uint8 (h, w), its left-right check;
+    low, high: int32 (3, w), scratch: a ring of three rows' spans; rows: int32 (3, w),
+    scratch: a row's least low and greatest high over its neighbourhood's rows, and its
+    starts; out: int32 (H, W)."""
+    height, width = disp.shape
+    y0, y1, offset = sc[STARTS.y0], sc[STARTS.y1], sc[STARTS.offset]
+    ndisp, slots, base, margin = sc[STARTS.ndisp], sc[STARTS.slots], sc[STARTS.base], \
+        sc[STARTS.margin]
+    none = 2 * ndisp  # above every low: no match in a row of the neighbourhood
+    least, greatest, starts = rows[0], rows[1], rows[2]
+    made = max(y0 - 1, 0) - 1  # the last row whose spans are in the ring
+    for y in range(y0, y1):
+        above, below = max(y - 1, 0), min(y + 1, height - 1)
+        while made < below:
+            made += 1
+            _row_spans(disp, valid, made, offset, none, low[made % 3], high[made % 3])
+        la, lh, lb = low[above % 3], low[y % 3], low[below % 3]
+        ha, hh, hb = high[above % 3], high[y % 3], high[below % 3]
+        for x in range(width):  # over the three rows, then the three columns
+            least[x] = min(min(la[x], lh[x]), lb[x])
+            greatest[x] = max(max(ha[x], hh[x]), hb[x])
+        for x in range(width):
+            lo = min(least[max(x - 1, 0)], least[x], least[min(x + 1, width - 1)])
+            hi = max(greatest[max(x - 1, 0)], greatest[x], greatest[min(x + 1, width - 1)])
+            own = disp[y, x] - offset if valid[y, x] != 0 else (lo + hi) // 2
+            first = 2 * lo + base - margin
+            span = 2 * hi + base + margin - first + 1
+            start = first - (slots - span) // 2 if span <= slots else \
+                2 * own + base - slots // 2
+            start = start if lo <= hi else 0  # 0 where the neighbourhood has no match
+            starts[x] = min(max(start, 0), ndisp - slots)
+        line = out[2 * y]
+        for x in range(width):
+            line[2 * x] = starts[x]
+            line[2 * x + 1] = starts[x]
+        line[line.shape[0] - 1] = starts[width - 1]  # an odd width's last column
+        last_row = 2 * y + 1 if y < height - 1 else out.shape[0] - 1
+        for full_y in range(2 * y + 1, last_row + 1):
+            copy = out[full_y]
+            for x in range(copy.shape[0]):
+                copy[x] = line[x]
     return 0

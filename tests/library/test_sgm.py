@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import csw
+import oracle
 from csw.config import params
 from csw.data.synth import render
 from csw.eval.scoring import score
@@ -145,12 +146,39 @@ def test_the_half_size_pass_puts_the_true_disparity_in_the_slots():
     assert bad[24] <= bad[0] + 1.0  # measured: 9.8 against 9.1
 
 
-def test_row_spans_take_the_nearest_matches_either_side():
+@pytest.mark.parametrize("shape", [(4, 4), (5, 7), (8, 3), (9, 12), (40, 33)])
+@pytest.mark.parametrize("dmin", [0, -7, 5])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_the_starts_kernel_equals_the_oracle(shape, dmin, threads, monkeypatch):
+    """kernels.filters.narrow_starts equals tests/oracle.py's narrow_starts: half-size
+    matches with some, most and no pixels valid, rows without a match, spans narrower
+    and wider than the slots, odd and even sizes; in stripes of rows too."""
+    from csw.kernels import filters, runtime
     from csw.matching import narrow
 
+    monkeypatch.setattr(runtime, "DIRECT_WORK", 0 if threads > 1 else runtime.DIRECT_WORK)
+    height, width = shape
+    h, w = height // 2, width // 2
+    rng = np.random.default_rng(height * 100 + width - dmin)
+    for ndisp, slots, share in ((48, 8, 0.7), (48, 40, 0.1), (20, 4, 0.97), (64, 16, 0.0)):
+        half_d = ndisp // 2 + 1
+        disp = (rng.integers(0, half_d, (h, w)) + dmin // 2).astype(np.int32)
+        disp[rng.random((h, w)) < 0.3] = dmin // 2 - 1  # no candidate: the maps' invalid
+        valid = rng.random((h, w)) < share
+        valid[rng.integers(0, h)] = False  # a row without a match
+        valid &= disp >= dmin // 2
+        expected = oracle.narrow_starts(disp, valid, shape, dmin, ndisp, slots,
+                                        narrow.MARGIN)
+        got = filters.narrow_starts(disp, valid, shape, dmin // 2, ndisp, slots,
+                                    2 * (dmin // 2) - dmin, narrow.MARGIN, threads)
+        assert got.dtype == np.int32
+        np.testing.assert_array_equal(got, expected)
+
+
+def test_row_spans_take_the_nearest_matches_either_side():
     disp = np.array([[5, 0, 0, 9, 0], [0, 0, 0, 0, 0], [0, 0, 4, 0, 0]])
     valid = np.array([[1, 0, 0, 1, 0], [0, 0, 0, 0, 0], [0, 0, 1, 0, 0]], bool)
-    low, high = narrow.row_spans(disp, valid)
+    low, high = oracle.row_spans(disp, valid)
     np.testing.assert_array_equal(low, [[5, 5, 5, 9, 9], [-1] * 5, [4] * 5])
     np.testing.assert_array_equal(high, [[5, 9, 9, 9, 9], [-1] * 5, [4] * 5])
 
@@ -181,12 +209,10 @@ def test_half_size_images_round_each_block_and_keep_their_type(dtype):
 
 @pytest.mark.parametrize("shape", [(1, 1), (1, 6), (5, 1), (7, 9)])
 def test_the_narrowing_neighbourhood_is_each_pixels_3x3_window(shape):
-    from csw.matching import narrow
-
     values = np.random.default_rng(sum(shape)).integers(-50, 50, shape)
     height, width = shape
     for reduce, plain in ((np.minimum, min), (np.maximum, max)):
-        got = narrow.neighbourhood(values, reduce)
+        got = oracle.neighbourhood(values, reduce)
         for y in range(height):
             for x in range(width):
                 window = [values[min(max(y + a, 0), height - 1), min(max(x + b, 0), width - 1)]
