@@ -7,7 +7,7 @@
      (d 0..255), csw with 1 and 2 threads, the peers with 1; and million disparity
      evaluations a second (W * H * D / s) per core.
   2. Streams: Matcher.stream with the sgm preset against SGBM's frames a second, both
-     with 2 threads, at 640 x 480 d 0..63.
+     with 2 threads, at 640 x 480 d 0..63; and both with 1.
   3. Memory: peak RSS of `csw match --preset sgm` on the 1080p pair, d 0..255.
   4. Stripes: the share of pixels of csw.match_tiled's map that differ from the whole
      image's, at several stripe heights, on a 2000 x 2000 synthetic pair (d 0..127).
@@ -22,6 +22,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -106,27 +107,31 @@ def speed(name, left, right, dmax, rounds):
 
 
 def stream(rounds, frames=24):
-    """(csw frames/s, SGBM frames/s, ratios) at 640 x 480, d 0..63, 2 threads each."""
+    """Frames a second at 640 x 480, d 0..63: {"csw" | "SGBM": {threads: [per round]}}
+    for 2 threads each (the target's) and 1, the rounds interleaved."""
     pairs = [render(640, 480, 63, 3, phase=i / frames)[:2] for i in range(frames)]
-    matcher = csw.Matcher(preset=PRESET, dmin=0, dmax=63, threads=2)
+    matchers = {threads: csw.Matcher(preset=PRESET, dmin=0, dmax=63, threads=threads)
+                for threads in (2, 1)}
     sgbm = peers.sgbm_sample(64)
-    list(matcher.stream(pairs[:4]))
+    for matcher in matchers.values():
+        list(matcher.stream(pairs[:4]))
 
-    def run_csw():
-        for _ in matcher.stream(pairs):
+    def run_csw(threads):
+        for _ in matchers[threads].stream(pairs):
             pass
 
-    def run_sgbm():
-        peers.cv2.setNumThreads(2)
+    def run_sgbm(threads):
+        peers.cv2.setNumThreads(threads)
         for left, right in pairs:
             sgbm.compute(left, right)
 
-    ours, theirs = [], []
+    rates = {"csw": {2: [], 1: []}, "SGBM": {2: [], 1: []}}
     for _ in range(rounds):
-        ours.append(frames / timed(run_csw))
-        theirs.append(frames / timed(run_sgbm))
+        for threads in (2, 1):
+            rates["csw"][threads].append(frames / timed(partial(run_csw, threads)))
+            rates["SGBM"][threads].append(frames / timed(partial(run_sgbm, threads)))
     peers.cv2.setNumThreads(-1)
-    return ours, theirs, [a / b for a, b in zip(ours, theirs, strict=True)]
+    return rates
 
 
 def stripes(work):
@@ -174,7 +179,11 @@ def main():
                  args.rounds)
     left, right, _, _ = render(1920, 1080, dmax=255, seed=0)
     rows += speed("synthetic 1920 x 1080, d 0..255", left, right, 255, args.rounds)
-    ours, theirs, ratios = stream(args.rounds)
+    rates = stream(args.rounds)
+    ours, theirs = rates["csw"][2], rates["SGBM"][2]
+    ratios = [a / b for a, b in zip(ours, theirs, strict=True)]
+    scaling = {name: [a / b for a, b in zip(r[2], r[1], strict=True)]
+               for name, r in rates.items()}
     peak = peak_memory_mb(["--preset", PRESET, "--dmin", "0"])
     with tempfile.TemporaryDirectory() as work:
         stripe_rows = stripes(work)
@@ -182,8 +191,11 @@ def main():
     text = fill_template("sgm", [("report", dict(
         date=now_utc(), cpu=cpu_name(), llvm_cpu=target_cpu(), rounds=args.rounds,
         speed_rows="\n".join(rows), ours=spread(ours), theirs=spread(theirs),
-        ratios=spread(ratios), peak=peak, stripe_rows="\n".join(stripe_rows), side=BIG_SIDE,
-        big_dmax=BIG_DMAX, big_peak=big_peak, big_seconds=big_seconds))])
+        ratios=spread(ratios), ours_1=spread(rates["csw"][1]),
+        theirs_1=spread(rates["SGBM"][1]), csw_scaling=spread(scaling["csw"]),
+        sgbm_scaling=spread(scaling["SGBM"]), peak=peak,
+        stripe_rows="\n".join(stripe_rows), side=BIG_SIDE, big_dmax=BIG_DMAX,
+        big_peak=big_peak, big_seconds=big_seconds))])
     Path(args.output).write_text(text)
     print(f"wrote {args.output}")
 
