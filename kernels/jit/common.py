@@ -35,24 +35,44 @@ def prefetch(array, index):
     is LLVM's prefetch (an instruction, no call); with NUMBA_DISABLE_JIT, nothing."""
 
 
-@intrinsic
-def _prefetch(typingctx, array, index):
+def prefetch_write(array, index):
+    """As prefetch, for an element about to be written: its line is asked for as a
+    store asks for it (owned), so that the store does not wait for it."""
+
+
+def _prefetch_codegen(write):
     def codegen(context, builder, signature, args):
         data = context.make_array(signature.args[0])(context, builder, args[0]).data
         byte_pointer = ir.IntType(8).as_pointer()
         kind = ir.FunctionType(ir.VoidType(), [byte_pointer] + [ir.IntType(32)] * 3)
         function = builder.module.declare_intrinsic("llvm.prefetch", fnty=kind)
-        flag = [ir.Constant(ir.IntType(32), v) for v in (0, 3, 1)]  # read, keep, data
+        # read or write, keep in every cache level, data
+        flag = [ir.Constant(ir.IntType(32), v) for v in (int(write), 3, 1)]
         builder.call(function, [builder.bitcast(builder.gep(data, [args[1]]), byte_pointer),
                                 *flag])
         return context.get_dummy_value()
 
-    return types.void(array, index), codegen
+    return codegen
+
+
+@intrinsic
+def _prefetch(typingctx, array, index):
+    return types.void(array, index), _prefetch_codegen(False)
+
+
+@intrinsic
+def _prefetch_write(typingctx, array, index):
+    return types.void(array, index), _prefetch_codegen(True)
 
 
 @overload(prefetch)
 def _prefetch_compiled(array, index):
     return lambda array, index: _prefetch(array, index)
+
+
+@overload(prefetch_write)
+def _prefetch_write_compiled(array, index):
+    return lambda array, index: _prefetch_write(array, index)
 
 
 def stop_requested(stop):

@@ -46,7 +46,15 @@ import numpy as np
 from numba import njit
 
 from ..signature import Signature, Spec, arg, scalar_index
-from .common import ctpop, dtype_of, keep_or_take, lr_agrees, prefetch, stop_requested
+from .common import (
+    ctpop,
+    dtype_of,
+    keep_or_take,
+    lr_agrees,
+    prefetch,
+    prefetch_write,
+    stop_requested,
+)
 from .options import INLINE, SERIAL
 
 COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3
@@ -215,19 +223,33 @@ def _make(cost, cost_type, acc, negative, banded):
             for k in range(slots):
                 target[k] = source[k]
 
+    @njit(**INLINE)
+    def ask_to_write(costs_row, sums_row, x, costs_too, sums_too):
+        """Ask for pixel x's lines of a slab row about to be stored (prefetch_write): its
+        costs (costs_too) and its sums (sums_too)."""
+        if costs_too:
+            for k in range(0, costs_row.shape[1], cost_line):
+                prefetch_write(costs_row[x], k)
+        if sums_too:
+            for k in range(0, sums_row.shape[1], sum_line):
+                prefetch_write(sums_row[x], k)
+
     @njit(**SERIAL)
-    def band_row(col_sums, row_sums, out, row_starts, w, dmin, cmax, x0, x1):
+    def band_row(col_sums, row_sums, out, row_starts, w, dmin, cmax, x0, x1, next_costs,
+                 next_sums, costs_too, sums_too):
         """A banded variant's slab row from the column sums, pixels x0 <= x < x1: out[x,
         k] = C(y, x, dmin + row_starts[x] + k), the sum of the window's w columns, or
         slid from pixel x - 1's
         where that searched the same slots (two columns' work for w).  Columns' sums
         outside their spans hold stale values: they reach only slots that are not
         candidates (cmax), or cancel exactly in a slide (the same value added at x - 1
-        and subtracted at x)."""
+        and subtracted at x).  next_costs, next_sums: the next row's, asked for as
+        ask_to_write says."""
         width, slots = out.shape
         ndisp = col_sums.shape[1]
         previous = -1
         for x in range(x0, x1):
+            ask_to_write(next_costs, next_sums, x, costs_too, sums_too)
             start = row_starts[x]
             if start == previous:
                 add = col_sums[x + w - 1, start:]
@@ -330,9 +352,15 @@ def _make(cost, cost_type, acc, negative, banded):
                     column_move(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
                                 right_rev[y - 1], col_sums, dmin,
                                 ring[(y - 1) % w if ringed else 0], spans)
+                # The next row's costs and, fused, its sums are stored next: their
+                # lines asked for now, so that those stores find them in the caches.
+                costs_too = y + 1 < y1
+                sums_too = costs_too and fused and add != 2
+                next_costs = costs[y + 1 - band_y0 if costs_too else 0]
+                next_sums = sums[y + 1 - band_y0 if sums_too else 0]
                 if banded:
                     band_row(col_sums, row_sums, costs[y - band_y0], starts[y], w, dmin,
-                             cmax, x0, x1)
+                             cmax, x0, x1, next_costs, next_sums, costs_too, sums_too)
                     if fused:
                         vertical_row(costs, sums, state, mins, starts, y - y0, y,
                                      np.int64(1), band_y0, x0, x1, add, p1, p2, never)
@@ -344,6 +372,7 @@ def _make(cost, cost_type, acc, negative, banded):
                         row_sums[k] = row_sums[k] + s[k]
                 out = costs[y - band_y0]
                 for x in range(x0, x1):
+                    ask_to_write(next_costs, next_sums, x, costs_too, sums_too)
                     entering = col_sums[x + w - 1]
                     sub = col_sums[x - 1] if x > x0 else col_sums[0]
                     c = out[x]
@@ -609,9 +638,20 @@ def _make(cost, cost_type, acc, negative, banded):
             out_disp, out_cost = disp[y], min_cost[y]
             fresh(line[1], pad)
             least = acc(0)
+            # The next row's costs and sums come from memory (fused, its step of the path
+            # up reads them first): asked for here, where the work waits on them less.
+            next_y = y - 1 if fused else y + 1
+            ask_next = y0 <= next_y < y1
+            next_costs = costs[next_y - band_y0 if ask_next else 0]
+            next_sums = sums[next_y - band_y0 if ask_next else 0]
             for x in range(width):
                 before, after = (x + 1) % 2, x % 2
                 t = total[x]
+                if ask_next:
+                    for k in range(0, ndisp, sum_line):
+                        prefetch(next_sums[x], k)
+                    for k in range(0, ndisp, cost_line):
+                        prefetch(next_costs[x], k)
                 a, b = line[after], line[before]
                 start = 0
                 if banded:
