@@ -4,6 +4,7 @@ claim test, the unique rule's distinctness test and the left-right check of a pi
 import llvmlite.ir as ir
 import numpy as np
 from numba import njit, types
+from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
 from ..contract import dtype_name, dtype_of  # noqa: F401 (the workers' modules use them)
@@ -30,9 +31,11 @@ def _ctpop_compiled(value):
 
 
 def prefetch(array, index):
-    """Ask the CPU to bring array[index] (a 1-D array) into its caches soon, for loops
-    that walk memory downwards, where its own prefetchers don't follow.  Compiled, this
-    is LLVM's prefetch (an instruction, no call); with NUMBA_DISABLE_JIT, nothing."""
+    """Ask the CPU to bring array[index] into its caches soon, for loops that walk memory
+    downwards, where its own prefetchers don't follow (index: an integer, or a tuple of
+    one a dimension: no view is made, as array[x][k] would make one, with its reference
+    counting).  Compiled, this is LLVM's prefetch (an instruction, no call); with
+    NUMBA_DISABLE_JIT, nothing."""
 
 
 def prefetch_write(array, index):
@@ -42,14 +45,17 @@ def prefetch_write(array, index):
 
 def _prefetch_codegen(write):
     def codegen(context, builder, signature, args):
-        data = context.make_array(signature.args[0])(context, builder, args[0]).data
-        byte_pointer = ir.IntType(8).as_pointer()
-        kind = ir.FunctionType(ir.VoidType(), [byte_pointer] + [ir.IntType(32)] * 3)
+        array_type, index_type = signature.args
+        array = context.make_array(array_type)(context, builder, args[0])
+        indices = cgutils.unpack_tuple(builder, args[1]) \
+            if isinstance(index_type, types.BaseTuple) else [args[1]]
+        pointer = cgutils.get_item_pointer(context, builder, array_type, array, indices)
+        kind = ir.FunctionType(ir.VoidType(), [ir.IntType(8).as_pointer()] +
+                               [ir.IntType(32)] * 3)
         function = builder.module.declare_intrinsic("llvm.prefetch", fnty=kind)
         # read or write, keep in every cache level, data
         flag = [ir.Constant(ir.IntType(32), v) for v in (int(write), 3, 1)]
-        builder.call(function, [builder.bitcast(builder.gep(data, [args[1]]), byte_pointer),
-                                *flag])
+        builder.call(function, [builder.bitcast(pointer, ir.IntType(8).as_pointer()), *flag])
         return context.get_dummy_value()
 
     return codegen

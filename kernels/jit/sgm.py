@@ -229,10 +229,10 @@ def _make(cost, cost_type, acc, negative, banded):
         costs (costs_too) and its sums (sums_too)."""
         if costs_too:
             for k in range(0, costs_row.shape[1], cost_line):
-                prefetch_write(costs_row[x], k)
+                prefetch_write(costs_row, (x, k))
         if sums_too:
             for k in range(0, sums_row.shape[1], sum_line):
-                prefetch_write(sums_row[x], k)
+                prefetch_write(sums_row, (x, k))
 
     @njit(**SERIAL)
     def band_row(col_sums, row_sums, out, row_starts, w, dmin, cmax, x0, x1, next_costs,
@@ -626,11 +626,10 @@ def _make(cost, cost_type, acc, negative, banded):
                     moved = starts[y, x] - starts[y, x + 1] if i > 0 else 0
                     b, a = shifted(b, moved, ndisp, pad), shifted(a, 0, ndisp, pad)
                 if x >= AHEAD:  # this path walks memory downwards: see prefetch
-                    ahead_cost, ahead_sum = row[x - AHEAD], total[x - AHEAD]
                     for k in range(0, ndisp, sum_line):
-                        prefetch(ahead_sum, k)
+                        prefetch(total, (x - AHEAD, k))
                     for k in range(0, ndisp, cost_line):
-                        prefetch(ahead_cost, k)
+                        prefetch(row, (x - AHEAD, k))
                 least = path_step_into(b, least, row[x], a, total[x], 1, p1, p2, never)
             if track_right:
                 right_best_rev[:] = never
@@ -649,9 +648,9 @@ def _make(cost, cost_type, acc, negative, banded):
                 t = total[x]
                 if ask_next:
                     for k in range(0, ndisp, sum_line):
-                        prefetch(next_sums[x], k)
+                        prefetch(next_sums, (x, k))
                     for k in range(0, ndisp, cost_line):
-                        prefetch(next_costs[x], k)
+                        prefetch(next_costs, (x, k))
                 a, b = line[after], line[before]
                 start = 0
                 if banded:
