@@ -22,6 +22,7 @@ costs split the band's columns, each block's path down made with them row by row
 (fused, kernels/jit/sgm.py: each column's path is its own), the path up its columns,
 the rows' last step its rows; the diagonal paths cross columns and run in one thread.
 A band in one thread also makes its path up within the last step, the rows going up.
+Each step asks for the next row's slab lines while it works on a row (kernels/jit/sgm.py).
 Results do not depend on the bands or the threads: every split computes the same sums.
 
 Layers:
