@@ -334,7 +334,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
 
         def stripe(i, stop):
             return run(**dict(base, **cost_scratch(), state=down, mins=down_mins, add=add,
-                              fused=1, step=COSTS, y0=y0, y1=y1, band_y0=y0,
+                              step=COSTS, y0=y0, y1=y1, band_y0=y0,
                               x0=int(edges[i]), x1=int(edges[i + 1]), stop=stop))
 
         runtime.run_stripes(stripe, count, count, (y1 - y0) * work_per_row,

@@ -17,7 +17,7 @@ taken from S as the fast engine takes them from C.
 
 One entry per variant, its step chosen by a scalar (one compile, not five):
   COSTS      the window costs of image rows y0 <= y < y1 into the band's cost slab
-             (fused: with each row's step of the vertical path down)
+             with each row's step of the vertical path down
   VERTICAL   a vertical path over the band's rows, for the columns x0 <= x < x1
   DIAGONAL   the two diagonal paths going down, or up, over the band's rows
   SELECT     the two horizontal paths of rows y0 <= y < y1, then each pixel's winner
@@ -25,7 +25,8 @@ One entry per variant, its step chosen by a scalar (one compile, not five):
 
 A fused step makes a vertical path's row while the row's costs and sums are in the
 caches, rather than in a pass of its own over the slabs, which reads them from memory:
-one thread's way through a band (kernels/sgm.py).
+the costs step always, the winners step in one thread's way through a band
+(kernels/sgm.py).
 
 Path states: state (2, W, D + 2) two buffers of each column's L along a vertical or
 diagonal path (the row before and the row being made), with a sentinel (``big``) at both
@@ -234,6 +235,14 @@ def _make(cost, cost_type, acc, negative, banded):
             for k in range(0, sums_row.shape[1], sum_line):
                 prefetch_write(sums_row, (x, k))
 
+    @njit(**INLINE)
+    def ask_to_read(costs_row, sums_row, x):
+        """Ask for pixel x's lines of a slab row about to be read: its costs and sums."""
+        for k in range(0, sums_row.shape[1], sum_line):
+            prefetch(sums_row, (x, k))
+        for k in range(0, costs_row.shape[1], cost_line):
+            prefetch(costs_row, (x, k))
+
     @njit(**SERIAL)
     def band_row(col_sums, row_sums, out, row_starts, w, dmin, cmax, x0, x1, next_costs,
                  next_sums, costs_too, sums_too):
@@ -287,10 +296,9 @@ def _make(cost, cost_type, acc, negative, banded):
                   starts, sums, state, mins, sc, stop):
         """costs[y - band_y0, x, k] = C(y, x, dmin + k) for rows y0 <= y < y1: column
         sums moved down the rows, row sums slid along each row (kernels/jit/fast.py).
-        Pixels x0 <= x < x1 only (their columns' sums: w - 1 more).  fused 1: each
-        row's step of the vertical path down through those pixels (state, mins; add as
-        for vertical) follows its costs, while they are in the caches; y0 is then the
-        band's first row.
+        Pixels x0 <= x < x1 only (their columns' sums: w - 1 more).  Each row's step of
+        the vertical path down through those pixels (state, mins; add as for vertical)
+        follows its costs, while they are in the caches; y0 is the band's first row.
         A banded variant with a window works in tiles of rows (sc[tile_rows]): each
         column's sums cover only the slots its pixels search in the tile (tile_spans),
         and each pixel sums its own slots (band_row).  With a window of 1 it makes each
@@ -300,7 +308,7 @@ def _make(cost, cost_type, acc, negative, banded):
         y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
         width = costs.shape[1]
         ndisp = col_sums.shape[1]
-        fused, add = sc[SC.fused] != 0, sc[SC.add]
+        add = sc[SC.add]
         p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
         x0, x1 = sc[SC.x0], sc[SC.x1]
         if w == 1:  # each pixel's own cost: no sums to move
@@ -324,11 +332,9 @@ def _make(cost, cost_type, acc, negative, banded):
                         c[k] = cmax
                 if banded:
                     gather(out, costs[y - band_y0], starts[y], x0, x1)
-                if fused:
-                    vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
-                                 band_y0, x0, x1, add, p1, p2, never)
-            if fused:
-                vertical_end(state, mins, y1 - y0, x0, x1)
+                vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
+                             band_y0, x0, x1, add, p1, p2, never)
+            vertical_end(state, mins, y1 - y0, x0, x1)
             return 0
         tile = sc[SC.tile_rows] if banded else max(y1 - y0, 1)
         if not banded:
@@ -352,18 +358,18 @@ def _make(cost, cost_type, acc, negative, banded):
                     column_move(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
                                 right_rev[y - 1], col_sums, dmin,
                                 ring[(y - 1) % w if ringed else 0], spans)
-                # The next row's costs and, fused, its sums are stored next: their
-                # lines asked for now, so that those stores find them in the caches.
+                # The next row's costs and (but for the state alone) its sums are
+                # stored next: their lines asked for now, so that those stores find them
+                # in the caches.
                 costs_too = y + 1 < y1
-                sums_too = costs_too and fused and add != 2
+                sums_too = costs_too and add != 2
                 next_costs = costs[y + 1 - band_y0 if costs_too else 0]
                 next_sums = sums[y + 1 - band_y0 if sums_too else 0]
                 if banded:
                     band_row(col_sums, row_sums, costs[y - band_y0], starts[y], w, dmin,
                              cmax, x0, x1, next_costs, next_sums, costs_too, sums_too)
-                    if fused:
-                        vertical_row(costs, sums, state, mins, starts, y - y0, y,
-                                     np.int64(1), band_y0, x0, x1, add, p1, p2, never)
+                    vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
+                                 band_y0, x0, x1, add, p1, p2, never)
                     continue
                 row_sums[:] = 0
                 for b in range(x0, x0 + w - 1):
@@ -384,11 +390,9 @@ def _make(cost, cost_type, acc, negative, banded):
                         v = acc(row_sums[k] + entering[k] - sub[k] * keep)
                         row_sums[k] = v
                         c[k] = cost_type(v) if lo <= k < n else cmax
-                if fused:
-                    vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
-                                 band_y0, x0, x1, add, p1, p2, never)
-        if fused:
-            vertical_end(state, mins, y1 - y0, x0, x1)
+                vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
+                             band_y0, x0, x1, add, p1, p2, never)
+        vertical_end(state, mins, y1 - y0, x0, x1)
         return 0
 
     @njit(**INLINE)
@@ -626,10 +630,7 @@ def _make(cost, cost_type, acc, negative, banded):
                     moved = starts[y, x] - starts[y, x + 1] if i > 0 else 0
                     b, a = shifted(b, moved, ndisp, pad), shifted(a, 0, ndisp, pad)
                 if x >= AHEAD:  # this path walks memory downwards: see prefetch
-                    for k in range(0, ndisp, sum_line):
-                        prefetch(total, (x - AHEAD, k))
-                    for k in range(0, ndisp, cost_line):
-                        prefetch(row, (x - AHEAD, k))
+                    ask_to_read(row, total, x - AHEAD)
                 least = path_step_into(b, least, row[x], a, total[x], 1, p1, p2, never)
             if track_right:
                 right_best_rev[:] = never
@@ -647,10 +648,7 @@ def _make(cost, cost_type, acc, negative, banded):
                 before, after = (x + 1) % 2, x % 2
                 t = total[x]
                 if ask_next:
-                    for k in range(0, ndisp, sum_line):
-                        prefetch(next_sums, (x, k))
-                    for k in range(0, ndisp, cost_line):
-                        prefetch(next_costs, (x, k))
+                    ask_to_read(next_costs, next_sums, x)
                 a, b = line[after], line[before]
                 start = 0
                 if banded:
