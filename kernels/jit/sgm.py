@@ -248,8 +248,8 @@ def _make(cost, cost_type, acc, negative, banded):
                  next_sums, costs_too, sums_too):
         """A banded variant's slab row from the column sums, pixels x0 <= x < x1: out[x,
         k] = C(y, x, dmin + row_starts[x] + k), the sum of the window's w columns, or
-        slid from pixel x - 1's
-        where that searched the same slots (two columns' work for w).  Columns' sums
+        slid from pixel x - 1's where that searched the same slots (two columns' work
+        for w).  Columns' sums
         outside their spans hold stale values: they reach only slots that are not
         candidates (cmax), or cancel exactly in a slide (the same value added at x - 1
         and subtracted at x).  next_costs, next_sums: the next row's, asked for as
