@@ -15,8 +15,16 @@ from .catalogue import entry
 from .workspace import empty
 
 # The speckle filter's work per pixel in runtime.DIRECT_WORK's units: about 6 ns a pixel
-# in one thread, so that maps from 2 MP up run in parallel stripes.
+# in one thread.
 SPECKLE_WORK = 25
+
+
+def direct_work():
+    """The work (runtime.DIRECT_WORK's units) from which a filter runs in parallel
+    stripes: a tenth of a match's, about 1 ms (the speckle filter: from 0.2 MP up), since
+    the match's next step waits for it and handing stripes to the pool costs about
+    0.13 ms."""
+    return runtime.DIRECT_WORK // 10
 
 
 def _by_rows(kind, arguments, height, scratch=None, threads=None, per_pixel=8):
@@ -27,14 +35,14 @@ def _by_rows(kind, arguments, height, scratch=None, threads=None, per_pixel=8):
     run = native.entry(*entry("filters", kind))
     width = next(a.shape[1] for a in arguments.values() if getattr(a, "ndim", 0) == 2)
     work = height * width * per_pixel
-    count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
+    count = 1 if work < direct_work() else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)
 
     def stripe(i, stop):
         made = {name: make() for name, make in (scratch or {}).items()}
         return run(**arguments, **made, y0=edges[i], y1=edges[i + 1])
 
-    runtime.run_stripes(stripe, count, count, work)
+    runtime.run_stripes(stripe, count, count, work, direct_work())
 
 
 def lr_consistent(disp, right_disp, limit, invalid=-1, threads=None, out=None):
@@ -46,7 +54,7 @@ def lr_consistent(disp, right_disp, limit, invalid=-1, threads=None, out=None):
     the check into, else a new one.  threads: as for csw.match."""
     disp, right_disp = np.ascontiguousarray(disp), np.ascontiguousarray(right_disp)
     valid = np.empty(disp.shape, np.uint8) if out is None else out
-    # About 1.8 ns a pixel in one thread: 10 units, parallel from about 5 MP up.
+    # About 1.8 ns a pixel in one thread: 10 units, parallel from about 0.5 MP up.
     _by_rows("lr", dict(disp=disp, right_disp=right_disp, valid=valid, limit=int(limit),
                         invalid=int(invalid)), disp.shape[0], threads=threads, per_pixel=10)
     return valid.view(np.bool_)
@@ -64,7 +72,7 @@ def winners_consistent(disp, min_cost, limit, invalid=-1, threads=None, out=None
     min_cost = np.ascontiguousarray(min_cost, np.int64)
     valid = np.empty(disp.shape, np.uint8) if out is None else out
     width = disp.shape[1]
-    # About 2 ns a pixel in one thread (two passes of a row): parallel from 4 MP up.
+    # About 2 ns a pixel in one thread (two passes of a row): parallel from 0.4 MP up.
     _by_rows("winners", dict(disp=disp, min_cost=min_cost, valid=valid, limit=int(limit),
                              invalid=int(invalid)), disp.shape[0],
              scratch={"best": lambda: np.empty(width, np.int64),
@@ -87,7 +95,7 @@ def as_float(disp, lr_valid, invalid, out=None, threads=None, workspace=None):
     arguments = dict(disp=disp, lr_valid=lr, out=out, invalid=int(invalid),
                      checked=int(checked))
     work = disp.size * FLOAT_WORK
-    if workspace is not None and work < runtime.DIRECT_WORK and workspace.keeps_calls(disp.size):
+    if workspace is not None and work < direct_work() and workspace.keeps_calls(disp.size):
         call = workspace.kept_or_made(
             "float-call", (disp.shape, arguments["invalid"], checked),
             lambda: native.entry(*entry("filters", "float")).bind(**arguments, y0=0,
@@ -101,7 +109,7 @@ def as_float(disp, lr_valid, invalid, out=None, threads=None, workspace=None):
 
 
 # About 0.3 ns a pixel in one thread, in runtime.DIRECT_WORK's units: parallel from
-# about 25 MP up.
+# about 2.5 MP up.
 FLOAT_WORK = 2
 
 
@@ -162,7 +170,7 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None, clear=F
     disp = np.ascontiguousarray(disp, np.float32)
     height, width = disp.shape
     work = disp.size * SPECKLE_WORK
-    if workspace is not None and work < runtime.DIRECT_WORK and workspace.keeps_calls(disp.size):
+    if workspace is not None and work < direct_work() and workspace.keeps_calls(disp.size):
         key = (disp.shape, int(max_size), float(max_diff))
         return workspace.kept_or_made("speckle-call", key,
                                       lambda: SpeckleCall(*key))(disp, clear)
@@ -170,7 +178,7 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None, clear=F
     parent, size = (empty(workspace, f"speckle-forest-{i}", (disp.size,), np.int32)
                     for i in range(2))
     first = np.empty(height, np.int64)
-    count = 1 if work < runtime.DIRECT_WORK else min(runtime.thread_count(threads), height)
+    count = 1 if work < direct_work() else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)
     run = native.entry(*entry("filters", "speckle"))
     none = np.empty(0, np.int64)
@@ -179,10 +187,11 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None, clear=F
         return run(**_speckle_arguments(disp, small, parent, size, first, max_size, max_diff,
                                         number, edges[i], edges[i + 1], joins))
 
-    runtime.run_stripes(lambda i, stop: step(0, i), count, count, work)
+    runtime.run_stripes(lambda i, stop: step(0, i), count, count, work, direct_work())
     if count > 1:
         step(1, 0, edges[1:-1].copy())
-    runtime.run_stripes(lambda i, stop: step(3 if clear else 2, i), count, count, work)
+    runtime.run_stripes(lambda i, stop: step(3 if clear else 2, i), count, count, work,
+                        direct_work())
     return small.view(np.bool_)
 
 
