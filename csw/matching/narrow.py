@@ -48,7 +48,11 @@ def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
     ndisp = dmax - dmin + 1
     if not narrows(slots, dmin, dmax) or min(left.shape) < 4:
         return None
-    coarse = sgm.match_sgm(half(left), half(right), dmin=dmin // 2, dmax=-(-dmax // 2),
+    # Half the range, floored at both ends: an odd dmax's top half-size match (dmax / 2
+    # rounded up) is within MARGIN of its rounded-down neighbour, and the half range's
+    # count stays a whole number of vectors where the range's is (0..191: 96 at half
+    # size, not 97, whose one extra disparity cost a fifth of the pass).
+    coarse = sgm.match_sgm(half(left), half(right), dmin=dmin // 2, dmax=dmax // 2,
                            lr_check=1, threads=threads, **match_options)
     # The half range's start is offset 0 of the spans; base is its full-size offset.
     return filters.narrow_starts(coarse.disparity, coarse.lr_valid, left.shape, dmin // 2,
