@@ -59,6 +59,9 @@ from .common import (
 from .options import INLINE, SERIAL
 
 COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3
+# A banded variant's column spans are widened to a whole number of this many
+# disparities (tile_spans): 16-bit lanes of a 256-bit vector, half of a 512-bit one.
+SPAN_LANES = 16
 # Pixels ahead that the path from the right asks the caches for (it walks memory
 # downwards, where the CPU's prefetchers don't follow: on a Zen 1 core the path took
 # twice the time of the path from the left without them).
@@ -187,7 +190,8 @@ def _make(cost, cost_type, acc, negative, banded):
         """A banded variant's column spans over image rows t0 <= y < t1, for pixels x0
         <= x < x1: padded column j is in the windows of pixels x = j - w + 1 .. j, so
         its sums are needed from the least of their starts to the greatest start + slots
-        (exclusive), candidates only (d <= j); none for columns no such pixel sums.
+        (exclusive), candidates only (d <= j), widened to whole vectors (SPAN_LANES);
+        none for columns no such pixel sums.
         starts: int32 (H, W); spans: int32 (2, Wp) out."""
         low, high = spans[0], spans[1]
         for x in range(x0, x1):
@@ -209,8 +213,15 @@ def _make(cost, cost_type, acc, negative, banded):
             for x in range(a + 1, b + 1):
                 least = min(least, low[x])
                 most = max(most, high[x])
-            low[j] = least
-            high[j] = max(min(most + slots, ndisp, j - dmin + 1), least)
+            top = min(ndisp, j - dmin + 1)
+            end = max(min(most + slots, top), least)
+            # Widened to whole vectors of SPAN_LANES where the candidates allow: the
+            # column loops then leave no remainder to do one d at a time, and the extra
+            # sums are made like the others, never read.
+            extra = -(end - least) % SPAN_LANES if end > least else 0
+            grown = min(extra, top - end)
+            low[j] = max(least - (extra - grown), 0)
+            high[j] = end + grown
 
     @njit(**SERIAL)
     def gather(row, out, row_starts, x0, x1):
