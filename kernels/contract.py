@@ -19,6 +19,12 @@ ENGINE_NAMES = ("fast", "window")
 
 # The census codes' widest (see census_dtype).
 MAX_CENSUS_BITS = 64
+
+# Disparities in a vector of 16-bit lanes (256 bits; half of a 512-bit one).  The
+# compiled loops over d run in whole vectors and finish the rest one d at a time: the
+# semi-global kernels pad their d axes to whole vectors of this many (kernels/sgm.py,
+# jit/sgm.py), where 63 disparities took half as long again as 64.
+LANES = 16
 # Which neighbours of the census window make bits (see census_places):
 #   dense   every one
 #   sparse  every second pixel of every second row, counted from the centre, and the

@@ -33,6 +33,13 @@ diagonal path (the row before and the row being made), with a sentinel (``big``)
 ends of the d axis, so that L(k - 1) and L(k + 1) need no test; mins (2, W) their
 minima.  Buffer 0 holds the state when a step starts and when it ends.
 
+A whole-range pass may pad its d axis (costs, sums, states) past the D candidates to
+whole vectors of LANES (kernels/sgm.py chooses; the scalar ``slots`` is D), the extra
+slots costing pad_cost = cmax + 2 P2 - P1: every L_r there is then at least that, above
+every real L_r (at most cmax + P2), so min_j L_r is the candidates', and slot D - 1's
+neighbour plus P1 is at least min_j L_r + P2, which the recurrence takes anyway, as
+it takes the sentinel's.  The winners are taken among the D only.
+
 A narrowed variant ("banded") searches K slots a pixel, slot k of pixel p holding
 d = dmin + starts[p] + k: the cost slab is (B, W, K), and a path meets p - r's slots
 of d and d -/+ 1, shift = starts[p] - starts[p - r] slots away; a d that p - r did not
@@ -46,6 +53,7 @@ min_j L + P2, so that a d without L is as one beyond the range (kernels/sgm.py).
 import numpy as np
 from numba import njit
 
+from ..contract import LANES
 from ..signature import Signature, Spec, arg, scalar_index
 from .common import (
     ctpop,
@@ -59,9 +67,6 @@ from .common import (
 from .options import INLINE, SERIAL
 
 COSTS, VERTICAL, DIAGONAL, SELECT = 0, 1, 2, 3
-# A banded variant's column spans are widened to a whole number of this many
-# disparities (tile_spans): 16-bit lanes of a 256-bit vector, half of a 512-bit one.
-SPAN_LANES = 16
 # Pixels ahead that the path from the right asks the caches for (it walks memory
 # downwards, where the CPU's prefetchers don't follow: on a Zen 1 core the path took
 # twice the time of the path from the left without them).
@@ -69,7 +74,7 @@ AHEAD = 4
 
 SC = scalar_index(("step", "window", "dmin", "p1", "p2", "cmax", "never", "y0", "y1",
                    "band_y0", "x0", "x1", "direction", "add", "extras", "keep_right",
-                   "lr_limit", "keyed", "tile_rows", "fused"))
+                   "lr_limit", "keyed", "tile_rows", "fused", "slots", "pad_cost"))
 
 
 
@@ -190,7 +195,7 @@ def _make(cost, cost_type, acc, negative, banded):
         """A banded variant's column spans over image rows t0 <= y < t1, for pixels x0
         <= x < x1: padded column j is in the windows of pixels x = j - w + 1 .. j, so
         its sums are needed from the least of their starts to the greatest start + slots
-        (exclusive), candidates only (d <= j), widened to whole vectors (SPAN_LANES);
+        (exclusive), candidates only (d <= j), widened to whole vectors (LANES);
         none for columns no such pixel sums.
         starts: int32 (H, W); spans: int32 (2, Wp) out."""
         low, high = spans[0], spans[1]
@@ -215,10 +220,10 @@ def _make(cost, cost_type, acc, negative, banded):
                 most = max(most, high[x])
             top = min(ndisp, j - dmin + 1)
             end = max(min(most + slots, top), least)
-            # Widened to whole vectors of SPAN_LANES where the candidates allow: the
+            # Widened to whole vectors of LANES where the candidates allow: the
             # column loops then leave no remainder to do one d at a time, and the extra
             # sums are made like the others, never read.
-            extra = -(end - least) % SPAN_LANES if end > least else 0
+            extra = -(end - least) % LANES if end > least else 0
             grown = min(extra, top - end)
             low[j] = max(least - (extra - grown), 0)
             high[j] = end + grown
@@ -319,6 +324,10 @@ def _make(cost, cost_type, acc, negative, banded):
         y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
         width = costs.shape[1]
         ndisp = col_sums.shape[1]
+        # A whole-range pass's d axis runs past the range to whole vectors (see above):
+        # its real disparities are the first ``slots``, the others cost pad_cost.
+        real = ndisp if banded else sc[SC.slots]
+        pad_cost = cost_type(sc[SC.pad_cost])
         add = sc[SC.add]
         p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
         x0, x1 = sc[SC.x0], sc[SC.x1]
@@ -330,7 +339,7 @@ def _make(cost, cost_type, acc, negative, banded):
                 out = row_costs if banded else costs[y - band_y0]
                 left, right = left_p[y], right_rev[y]
                 for x in range(x0, x1):
-                    n = max(min(ndisp, x - dmin + 1), 0)
+                    n = max(min(real, x - dmin + 1), 0)
                     lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
                     c = out[x]
                     lv = left[x]
@@ -340,7 +349,7 @@ def _make(cost, cost_type, acc, negative, banded):
                     for k in range(lo, n):
                         c[k] = cost_type(psi(lv, r[k]))
                     for k in range(n, ndisp):
-                        c[k] = cmax
+                        c[k] = cmax if k < real else pad_cost
                 if banded:
                     gather(out, costs[y - band_y0], starts[y], x0, x1)
                 vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
@@ -348,7 +357,7 @@ def _make(cost, cost_type, acc, negative, banded):
             vertical_end(state, mins, y1 - y0, x0, x1)
             return 0
         tile = sc[SC.tile_rows] if banded else max(y1 - y0, 1)
-        if not banded:
+        if not banded:  # past the range too (whole vectors): sums made, never read
             whole_spans(spans, dmin, ndisp, x0, x1, w)
         for t0 in range(y0, y1, tile):
             t1 = min(t0 + tile, y1)
@@ -393,14 +402,16 @@ def _make(cost, cost_type, acc, negative, banded):
                     entering = col_sums[x + w - 1]
                     sub = col_sums[x - 1] if x > x0 else col_sums[0]
                     c = out[x]
-                    # Candidates: d <= x and x - d <= width - 1 (k in lo..n - 1).
-                    n = max(min(ndisp, x - dmin + 1), 0)
+                    # Candidates: d <= x and x - d <= width - 1 (k in lo..n - 1); the
+                    # slots past the range take pad_cost.
+                    n = max(min(real, x - dmin + 1), 0)
                     lo = min(max(x - dmin - (width - 1), 0), n) if negative else 0
                     keep = 1 if x > x0 else 0  # column x0 is not yet in the sums at x0
                     for k in range(ndisp):
                         v = acc(row_sums[k] + entering[k] - sub[k] * keep)
                         row_sums[k] = v
-                        c[k] = cost_type(v) if lo <= k < n else cmax
+                        c[k] = cost_type(v) if lo <= k < n else \
+                            (cmax if k < real else pad_cost)
                 vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
                              band_y0, x0, x1, add, p1, p2, never)
         vertical_end(state, mins, y1 - y0, x0, x1)
@@ -615,6 +626,7 @@ def _make(cost, cost_type, acc, negative, banded):
         keep_right, lr_limit = sc[SC.keep_right], sc[SC.lr_limit]
         track_right = keep_right != 0 or lr_limit >= 0
         width, ndisp = costs.shape[1], costs.shape[2]
+        real = sc[SC.slots]  # the candidates' slots: a whole-range pass pads past them
         pad = pad_of(ndisp)
         shift = -dmin if negative else 0
         keyed = sc[SC.keyed] != 0
@@ -676,7 +688,7 @@ def _make(cost, cost_type, acc, negative, banded):
                     b, a = shifted(b, moved, ndisp, pad), shifted(a, 0, ndisp, pad)
                 c = row[x]
                 first_d = dmin + start
-                n = max(min(ndisp, x - first_d + 1), 0)
+                n = max(min(real, x - first_d + 1), 0)
                 lo = min(max(x - first_d - (width - 1), 0), n) if negative else 0
                 # The path from the left, its values added into the totals, and the
                 # least total among the candidates at its smallest k, in one pass.

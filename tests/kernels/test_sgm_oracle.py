@@ -73,6 +73,30 @@ def test_bands_and_threads_change_nothing(paths, threads, monkeypatch):
             assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
 
 
+@pytest.mark.parametrize("cost,window", [("sad", 3), ("census", 1), ("ssd", 1), ("shd", 3)])
+@pytest.mark.parametrize("paths", [4, 5, 8])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_ranges_padded_to_whole_vectors_change_nothing(cost, window, paths, threads,
+                                                       monkeypatch):
+    """Ranges of 22 to 27 disparities run their d axes to 32 (sgm.padded_depth): the
+    slots past the range, at P1 < P2, P1 = P2 and P1 = 0, from a negative dmin too, in
+    bands of one row and whole, on one thread or two, change no map."""
+    monkeypatch.setattr(sgm, "STEP_DIRECT_WORK", 0)
+    depths = []
+    padded_depth = sgm.padded_depth
+    monkeypatch.setattr(sgm, "padded_depth", lambda ndisp, *rest: depths.append(
+        (ndisp, padded_depth(ndisp, *rest))) or depths[-1][1])
+    rng = np.random.default_rng(len(cost) + 10 * window + paths + threads)
+    left, right = pair(rng, 7, 40, shift=11, noise=30)
+    p1, p2 = sgm.default_penalties(cost, window, 8)
+    for dmin, dmax, (a, b) in [(0, 21, (p1, p2)), (-5, 21, (p2, p2)), (3, 29, (0, p2))]:
+        for band_bytes in (one_row_bands(left, dmin, dmax, 8), None):
+            assert_equals_oracle(left, right, window=window, dmin=dmin, dmax=dmax,
+                                 cost=cost, paths=paths, p1=a, p2=b,
+                                 band_bytes=band_bytes, threads=threads)
+    assert depths and all(depth == 32 for _, depth in depths), depths
+
+
 def test_a_taller_bottom_band_changes_nothing(monkeypatch):
     """The bottom band, made once, may be taller than the others (sgm.LAST_BAND_BYTES):
     bands of 2 rows above one of 6, the same sums as one band."""
