@@ -21,10 +21,10 @@ SPECKLE_WORK = 25
 
 def direct_work():
     """The work (runtime.DIRECT_WORK's units) from which a filter runs in parallel
-    stripes: a tenth of a match's, about 1 ms (the speckle filter: from 0.2 MP up), since
-    the match's next step waits for it and handing stripes to the pool costs about
-    0.13 ms."""
-    return runtime.DIRECT_WORK // 10
+    stripes: a twentieth of a match's, about 0.5 ms (the speckle filter: from 0.1 MP up),
+    since the match's next step waits for it and handing a stripe to the pool costs
+    about 0.1 ms."""
+    return runtime.DIRECT_WORK // 20
 
 
 def _by_rows(kind, arguments, height, scratch=None, threads=None, per_pixel=8):
@@ -54,7 +54,7 @@ def lr_consistent(disp, right_disp, limit, invalid=-1, threads=None, out=None):
     the check into, else a new one.  threads: as for csw.match."""
     disp, right_disp = np.ascontiguousarray(disp), np.ascontiguousarray(right_disp)
     valid = np.empty(disp.shape, np.uint8) if out is None else out
-    # About 1.8 ns a pixel in one thread: 10 units, parallel from about 0.5 MP up.
+    # About 1.8 ns a pixel in one thread: 10 units, parallel from about 0.25 MP up.
     _by_rows("lr", dict(disp=disp, right_disp=right_disp, valid=valid, limit=int(limit),
                         invalid=int(invalid)), disp.shape[0], threads=threads, per_pixel=10)
     return valid.view(np.bool_)
@@ -72,7 +72,7 @@ def winners_consistent(disp, min_cost, limit, invalid=-1, threads=None, out=None
     min_cost = np.ascontiguousarray(min_cost, np.int64)
     valid = np.empty(disp.shape, np.uint8) if out is None else out
     width = disp.shape[1]
-    # About 2 ns a pixel in one thread (two passes of a row): parallel from 0.4 MP up.
+    # About 2 ns a pixel in one thread (two passes of a row): parallel from 0.2 MP up.
     _by_rows("winners", dict(disp=disp, min_cost=min_cost, valid=valid, limit=int(limit),
                              invalid=int(invalid)), disp.shape[0],
              scratch={"best": lambda: np.empty(width, np.int64),
@@ -109,7 +109,7 @@ def as_float(disp, lr_valid, invalid, out=None, threads=None, workspace=None):
 
 
 # About 0.3 ns a pixel in one thread, in runtime.DIRECT_WORK's units: parallel from
-# about 2.5 MP up.
+# about 1.25 MP up.
 FLOAT_WORK = 2
 
 
@@ -132,9 +132,9 @@ def subpixel(disp, best, prev, nxt, valid, fit, threads=None, out=None):
     return out
 
 
-# About 0.5 ns a pixel in one thread (four maps read, one written), in
-# runtime.DIRECT_WORK's units.
-SUBPIXEL_WORK = 3
+# About 1.2 ns a pixel in one thread (four maps read, one written; a KITTI frame's
+# 0.5 ms on a Zen 4), in runtime.DIRECT_WORK's units.
+SUBPIXEL_WORK = 6
 
 
 def confidence(best, second, valid, threads=None, out=None):
@@ -280,12 +280,13 @@ def narrow_starts(disp, valid, shape, offset, ndisp, slots, base, margin, thread
         raise ValueError(f"starts of {tuple(shape)} from a {disp.shape} half-size match "
                          f"with {slots} slots of {ndisp}: shapes or slots do not fit")
     out = np.empty(shape, np.int32) if out is None else out
-    # About 3 ns a half-size pixel in one thread, its four full-size pixels written.
+    # About 7 ns a half-size pixel in one thread, its four full-size pixels written (a
+    # KITTI frame's 0.8 ms on a Zen 4).
     _by_rows("starts", dict(disp=disp, valid=valid, out=out, offset=int(offset),
                             ndisp=int(ndisp), slots=int(slots), base=int(base),
                             margin=int(margin)), height,
              scratch={"low": lambda: np.empty((3, width), np.int32),
                       "high": lambda: np.empty((3, width), np.int32),
                       "rows": lambda: np.empty((3, width), np.int32)},
-             threads=threads, per_pixel=12)
+             threads=threads, per_pixel=36)
     return out

@@ -37,7 +37,7 @@ import numpy as np
 
 from . import native, runtime
 from .catalogue import PATHS, accumulator, cost_type, entry, sentinel
-from .census import census_transform
+from .census import census_pair
 from .contract import (
     CENSUS,
     LANES,
@@ -237,9 +237,8 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     bits = None
     if s.cost == CENSUS:
         bits = census_bits(census_window, census_pattern)
-        left_p = census_transform(left, census_window, threads, pad=h, pattern=census_pattern)
-        right_rev = census_transform(right, census_window, threads, pad=h, reverse=True,
-                                     pattern=census_pattern)
+        left_p, right_rev = census_pair(left, right, census_window, threads, h,
+                                        pattern=census_pattern)
         s = s._replace(cost=SHD)
     else:
         left_p = pad_edge(left, h, left.dtype, out=np.empty(shape, left.dtype))
@@ -256,7 +255,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
 
     disp = output(into, "disparity", (height, width), np.int32)
     min_cost = np.empty((height, width), np.int64)
-    maps = extra_maps(disp.shape, s, workspace, second=second)
+    maps = extra_maps(disp.shape, s, workspace, second=second, written=True)
     seconds = s.extras and second
     checked = s.lr_check >= 0
     lr_valid = output(into, "lr_valid", (height, width), np.uint8) if checked else \

@@ -10,6 +10,8 @@ Layers (as in stumpy's stump.py):
   jit/window.py     the per-stripe and per-row workers, compiled once per variant
 """
 
+from functools import partial
+
 import numpy as np
 
 from . import native, runtime
@@ -26,14 +28,18 @@ from .filters import lr_consistent
 from .workspace import empty, output
 
 
-def extra_maps(shape, s, workspace=None, right=None, second=True):
+def extra_maps(shape, s, workspace=None, right=None, second=True, written=False):
     """(second, prev, next, right) outputs: full maps where asked for (s.extras for the
     first three, the first only with ``second``; for the last, ``right``, by default
     s.right_map), else 1-row dummies the workers never write (the entries take arrays of
     the right type either way).  The right map, when only the left-right check uses it,
-    is the workspace's scratch (see match_fast); a returned one is fresh."""
+    is the workspace's scratch (see match_fast); a returned one is fresh.  The first
+    three hold -1 (none) until the worker writes them, unless ``written`` says that it
+    writes every pixel of them (semi-global matching: filling 2 x 3.7 MB took 0.3 ms
+    of a KITTI frame's match)."""
     rows = shape[0] if s.extras else 1
-    costs = tuple(np.full((rows if second or i else 1, shape[1]), -1, np.int64)
+    make = np.empty if written else partial(np.full, fill_value=-1)
+    costs = tuple(make((rows if second or i else 1, shape[1]), dtype=np.int64)
                   for i in range(3))
     stored = s.right_map if right is None else right
     right_shape = (shape[0] if stored else 1, shape[1])
