@@ -170,7 +170,8 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None, clear=F
     disp = np.ascontiguousarray(disp, np.float32)
     height, width = disp.shape
     work = disp.size * SPECKLE_WORK
-    if workspace is not None and work < direct_work() and workspace.keeps_calls(disp.size):
+    one_stripe = work < direct_work() or runtime.thread_count(threads) == 1
+    if workspace is not None and one_stripe and workspace.keeps_calls(disp.size):
         key = (disp.shape, int(max_size), float(max_diff))
         return workspace.kept_or_made("speckle-call", key,
                                       lambda: SpeckleCall(*key))(disp, clear)
@@ -178,7 +179,7 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None, clear=F
     parent, size = (empty(workspace, f"speckle-forest-{i}", (disp.size,), np.int32)
                     for i in range(2))
     first = np.empty(height, np.int64)
-    count = 1 if work < direct_work() else min(runtime.thread_count(threads), height)
+    count = 1 if one_stripe else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)
     run = native.entry(*entry("filters", "speckle"))
     none = np.empty(0, np.int64)
