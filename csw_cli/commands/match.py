@@ -231,10 +231,10 @@ def match(ctx, left, right, output, manifest, output_dir, suffix, overwrite, sum
     \b
     Presets by the numbers (docs/pipeline.md; 4 KITTI pairs: density / filled D1;
     one thread at 640x480, d 0..63, against StereoBM with its filters' time):
-      camera    50% / 9.9%   0.58x   StereoBM's stages; beats StereoBM on both
-      accurate  77% / 7.0%   0.76x   census costs, local windows
+      camera    50% / 9.9%   0.56x   StereoBM's stages; beats StereoBM on both
+      accurate  77% / 7.0%   0.75x   census costs, local windows
       sgm       92% / 4.5%   2.6x    semi-global paths (the default)
-      raw      100% / 35%    0.42x   no check: every pixel, right or wrong
+      raw      100% / 35%    0.41x   no check: every pixel, right or wrong
       StereoBM + filters: 35% / 17.2%, 1.00x
 
     Many pairs: give two folders (pairs by file name) or --manifest, and --output-dir.
