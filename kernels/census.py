@@ -68,8 +68,8 @@ def census_transform(image, size, threads=None, pad=0, reverse=False, out=None, 
 def census_pair(left, right, size, threads=None, pad=0, *, pattern):
     """(census_transform(left, ...), census_transform(right, ..., reverse=True)), both
     padded by ``pad``: the two images side by side, one a thread, where each alone would
-    run in one thread but takes long enough (about a millisecond, a KITTI frame's) for
-    two threads to pay."""
+    run in one thread but takes long enough (PAIR_WORK: a KITTI frame's 0.3 ms) for two
+    threads to pay."""
     work = left.shape[0] * left.shape[1] * len(_places_array(size, pattern))
     if runtime.thread_count(threads) == 1 or not PAIR_WORK <= work < runtime.DIRECT_WORK:
         return (census_transform(left, size, threads, pad, pattern=pattern),

@@ -35,10 +35,10 @@ minima.  Buffer 0 holds the state when a step starts and when it ends.
 
 A whole-range pass may pad its d axis (costs, sums, states) past the D candidates to
 whole vectors of LANES (kernels/sgm.py chooses; the scalar ``slots`` is D), the extra
-slots costing pad_cost = cmax + 2 P2 - P1: every L_r there is then at least that, above
-every real L_r (at most cmax + P2), so min_j L_r is the candidates', and slot D - 1's
-neighbour plus P1 is at least min_j L_r + P2, which the recurrence takes anyway, as
-it takes the sentinel's.  The winners are taken among the D only.
+slots costing pad_cost = cmax + 2 P2 - P1: every L_r there is then at least that, no
+less than any real L_r (at most cmax + P2), so min_j L_r is the candidates', and slot
+D - 1's neighbour plus P1 is at least min_j L_r + P2, which the recurrence takes
+anyway, as it takes the sentinel's.  The winners are taken among the D only.
 
 A narrowed variant ("banded") searches K slots a pixel, slot k of pixel p holding
 d = dmin + starts[p] + k: the cost slab is (B, W, K), and a path meets p - r's slots
