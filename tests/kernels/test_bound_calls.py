@@ -200,7 +200,7 @@ def test_the_padder_equals_edge_padding_of_the_image_and_of_it_reversed(dtype):
 
 
 @pytest.mark.parametrize("fit", ["parabola", "linear"])
-@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("threads", [1, pytest.param(2, marks=pytest.mark.two_cores)])
 def test_the_subpixel_map_equals_the_oracle_in_every_stripe(fit, threads, monkeypatch):
     import oracle
 

@@ -95,6 +95,7 @@ def test_evaluated_count_equals_oracle_on_scene_rows(engine, scene):
 
 
 @pytest.mark.parametrize("engine", ENGINES)
+@pytest.mark.two_cores
 @pytest.mark.parametrize("rule", ["literal", "unique"])
 def test_result_does_not_depend_on_thread_count(engine, rule, scene):
     left, right, _, _ = scene

@@ -56,7 +56,7 @@ def test_every_cost_window_and_path_count(cost, window, paths):
 
 
 @pytest.mark.parametrize("paths", [4, 5, 8])
-@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("threads", [1, pytest.param(2, marks=pytest.mark.two_cores)])
 def test_bands_and_threads_change_nothing(paths, threads, monkeypatch):
     """Bands of one, two and all rows, one thread or two: the same sums, bit for bit.
     Every step is split between the threads, however small (sgm.STEP_DIRECT_WORK): two
@@ -75,7 +75,7 @@ def test_bands_and_threads_change_nothing(paths, threads, monkeypatch):
 
 @pytest.mark.parametrize("cost,window", [("sad", 3), ("census", 1), ("ssd", 1), ("shd", 3)])
 @pytest.mark.parametrize("paths", [4, 5, 8])
-@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("threads", [1, pytest.param(2, marks=pytest.mark.two_cores)])
 def test_ranges_padded_to_whole_vectors_change_nothing(cost, window, paths, threads,
                                                        monkeypatch):
     """Ranges of 22 to 27 disparities run their d axes to 32 (sgm.padded_depth): the
@@ -97,6 +97,7 @@ def test_ranges_padded_to_whole_vectors_change_nothing(cost, window, paths, thre
     assert depths and all(depth == 32 for _, depth in depths), depths
 
 
+@pytest.mark.two_cores
 def test_a_taller_bottom_band_changes_nothing(monkeypatch):
     """The bottom band, made once, may be taller than the others (sgm.LAST_BAND_BYTES):
     bands of 2 rows above one of 6, the same sums as one band."""
@@ -134,7 +135,7 @@ def test_narrowed_search_every_cost_window_and_path_count(cost, window, paths):
                              paths=paths, p1=p1, p2=p2, starts=starts, slots=slots)
 
 
-@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("threads", [1, pytest.param(2, marks=pytest.mark.two_cores)])
 def test_narrowed_search_bands_and_threads_change_nothing(threads, monkeypatch):
     monkeypatch.setattr(sgm, "STEP_DIRECT_WORK", 0)
     rng = np.random.default_rng(threads + 40)
@@ -148,6 +149,7 @@ def test_narrowed_search_bands_and_threads_change_nothing(threads, monkeypatch):
             assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
 
 
+@pytest.mark.two_cores
 @pytest.mark.parametrize("window", [3, 5])
 def test_narrowed_costs_in_tiles_of_rows_change_nothing(monkeypatch, window):
     """A narrowed search sums each column over the slots its pixels search in a tile of

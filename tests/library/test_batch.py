@@ -115,6 +115,7 @@ def test_an_interrupted_batch_says_what_finished(folders, monkeypatch):
     assert sorted(p.name for p in (root / "out").iterdir()) == ["p0.pfm", "summary.json"]
 
 
+@pytest.mark.two_cores
 def test_small_pairs_run_side_by_side_and_give_the_same_maps(folders, monkeypatch):
     import threading
 

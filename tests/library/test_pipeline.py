@@ -80,6 +80,7 @@ def test_a_3x3_median_of_every_small_shape_equals_the_oracle(holes):
                                       oracle.median_valid(disp, 3))
 
 
+@pytest.mark.two_cores
 def test_median_of_a_frame_splits_its_rows_and_changes_nothing(monkeypatch):
     """A KITTI-size median is worth both threads: its stripes give the one-thread map."""
     disp = random_map(np.random.default_rng(5), (400, 800))

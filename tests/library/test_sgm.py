@@ -74,6 +74,7 @@ def test_stream_equals_match_with_sgm():
         np.testing.assert_array_equal(result.disparity, expected.disparity)
 
 
+@pytest.mark.two_cores
 def test_threads_and_bands_change_nothing_in_the_pipeline(monkeypatch):
     left, right, _, _ = render(120, 80, dmax=12, seed=5)
     whole = csw.match(left, right, preset="sgm", dmax=14, threads=1)
@@ -148,7 +149,7 @@ def test_the_half_size_pass_puts_the_true_disparity_in_the_slots():
 
 @pytest.mark.parametrize("shape", [(4, 4), (5, 7), (8, 3), (9, 12), (40, 33)])
 @pytest.mark.parametrize("dmin", [0, -7, 5])
-@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("threads", [1, pytest.param(2, marks=pytest.mark.two_cores)])
 def test_the_starts_kernel_equals_the_oracle(shape, dmin, threads, monkeypatch):
     """kernels.filters.narrow_starts equals tests/oracle.py's narrow_starts: half-size
     matches with some, most and no pixels valid, rows without a match, spans narrower

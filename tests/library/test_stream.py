@@ -92,6 +92,7 @@ def test_an_empty_stream_yields_nothing():
     assert list(csw.Matcher(dmax=15).stream([])) == []
 
 
+@pytest.mark.two_cores
 def test_stream_plan_puts_small_frames_side_by_side_and_stripes_large_ones():
     config = csw.config.params.resolve(dmax=63, threads=1)
     assert stream_concurrency(config, (480, 640)) == (1, 1)
