@@ -27,6 +27,13 @@ def direct_work():
     return runtime.DIRECT_WORK // 20
 
 
+def stripe_count(work, height, threads=None):
+    """The stripes of rows a filter of this much work runs in: one below direct_work(),
+    else one a thread (``threads``: as for csw.match).  A filter run as one stripe keeps
+    its bound call in a workspace (a stream's frames) where it has one."""
+    return 1 if work < direct_work() else min(runtime.thread_count(threads), height)
+
+
 def _by_rows(kind, arguments, height, scratch=None, threads=None, per_pixel=8):
     """Run a row-local filter over stripes of rows, one per thread (``threads``: as for
     csw.match), with its ``arguments`` by name but the stripe's rows (y0, y1) and the
@@ -35,7 +42,7 @@ def _by_rows(kind, arguments, height, scratch=None, threads=None, per_pixel=8):
     run = native.entry(*entry("filters", kind))
     width = next(a.shape[1] for a in arguments.values() if getattr(a, "ndim", 0) == 2)
     work = height * width * per_pixel
-    count = 1 if work < direct_work() else min(runtime.thread_count(threads), height)
+    count = stripe_count(work, height, threads)
     edges = runtime.even_split(height, count)
 
     def stripe(i, stop):
@@ -95,7 +102,8 @@ def as_float(disp, lr_valid, invalid, out=None, threads=None, workspace=None):
     arguments = dict(disp=disp, lr_valid=lr, out=out, invalid=int(invalid),
                      checked=int(checked))
     work = disp.size * FLOAT_WORK
-    if workspace is not None and work < direct_work() and workspace.keeps_calls(disp.size):
+    if workspace is not None and stripe_count(work, disp.shape[0], threads) == 1 and \
+            workspace.keeps_calls(disp.size):
         call = workspace.kept_or_made(
             "float-call", (disp.shape, arguments["invalid"], checked),
             lambda: native.entry(*entry("filters", "float")).bind(**arguments, y0=0,
@@ -170,8 +178,8 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None, clear=F
     disp = np.ascontiguousarray(disp, np.float32)
     height, width = disp.shape
     work = disp.size * SPECKLE_WORK
-    one_stripe = work < direct_work() or runtime.thread_count(threads) == 1
-    if workspace is not None and one_stripe and workspace.keeps_calls(disp.size):
+    count = stripe_count(work, height, threads)
+    if workspace is not None and count == 1 and workspace.keeps_calls(disp.size):
         key = (disp.shape, int(max_size), float(max_diff))
         return workspace.kept_or_made("speckle-call", key,
                                       lambda: SpeckleCall(*key))(disp, clear)
@@ -179,7 +187,6 @@ def speckle_mask(disp, max_size, max_diff, workspace=None, threads=None, clear=F
     parent, size = (empty(workspace, f"speckle-forest-{i}", (disp.size,), np.int32)
                     for i in range(2))
     first = np.empty(height, np.int64)
-    count = 1 if one_stripe else min(runtime.thread_count(threads), height)
     edges = runtime.even_split(height, count)
     run = native.entry(*entry("filters", "speckle"))
     none = np.empty(0, np.int64)
