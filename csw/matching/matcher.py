@@ -5,6 +5,7 @@ chooses between the two for files.  Both prepare through :mod:`csw.matching.setu
 """
 
 import functools
+import itertools
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -209,43 +210,61 @@ class Matcher:
         errors: "raise" (a frame's error ends the stream) or "yield" (the frame's
             exception is yielded in its place and the stream goes on).
 
-        The first frame is matched alone (it finds a range "auto" for the rest, unless
-        the matcher was made with ``keep_range=False``).  A
-        result equals :meth:`match`'s on the same pair bit for bit; its settings'
-        ``threads`` says how many threads its frame used.  Frames are read from
+        With a range "auto", the first frame is matched alone (it finds the range for the
+        rest, unless the matcher was made with ``keep_range=False``), as it is when its
+        left image is a path (its size plans the stream); otherwise it is matched beside
+        the next ones.  A result equals :meth:`match`'s on the same pair bit for bit; its
+        settings' ``threads`` says how many threads its frame used.  Frames are read from
         ``pairs`` in this thread, at most ``in_flight`` ahead of the one yielded; on a
         Ctrl-C, no frame is started after it and the ones running finish first.  When
         ``pairs`` itself raises, the frames it gave before are yielded first.
         """
         if errors not in ("raise", "yield"):
             raise ValueError(f"errors must be 'raise' or 'yield', got {errors!r}")
-        from concurrent.futures import ThreadPoolExecutor
-
         iterator = iter(pairs)
-        for left, right in iterator:  # the first frame, alone
-            first = self._guarded(self._found or self.config, left, right, want_confidence,
-                                  errors)
-            break
-        else:
-            return
         config = self._found or self.config
-        shape = first.shape if isinstance(first, Result) else None
+        shape = None
+        if config.range_known:
+            # Nothing to learn from a first frame: an array's size plans the stream, and
+            # the frame is matched beside the next ones rather than alone first.
+            for pair in iterator:
+                shape = _shape_of(pair)
+                iterator = itertools.chain([pair], iterator)
+                break
+            else:
+                return
+        if shape is None:
+            for left, right in iterator:  # the first frame, alone
+                first = self._guarded(config, left, right, want_confidence, errors)
+                break
+            else:
+                return
+            config = self._found or self.config
+            shape = first.shape if isinstance(first, Result) else None
+            yield first
         planned = config  # a range found on each frame: planned with the first one's
         if shape is not None and not config.range_known:
             planned = config.replace(dmin=first.settings["dmin"], dmax=first.settings["dmax"])
         frames, threads = stream_concurrency(planned, shape, in_flight)
-        yield first
         frame_config = config.replace(threads=threads)
+        if frames == 1:
+            for left, right in iterator:
+                yield self._guarded(frame_config, left, right, want_confidence, errors)
+            return
+        yield from self._side_by_side(iterator, frames, frame_config, want_confidence, errors)
+
+    def _side_by_side(self, iterator, frames, config, want_confidence, errors):
+        """The frames of ``iterator`` matched ``frames`` at a time with ``config``, yielded
+        in order, reading at most ``frames`` ahead of the one yielded."""
+        from concurrent.futures import ThreadPoolExecutor
+
         # Frames in flight on a pool of their own, not csw.scale.executor.run_tasks (the
         # engine of batches and stripes, which yields tasks as they finish and queues
         # two a thread): a stream yields in order, reads its source at most
         # ``in_flight`` frames ahead (a camera must not be drained), and lives under
         # csw.scale, which imports this module.  kernels/runtime.py's pool is another
         # level again: the row stripes inside one frame.
-        if frames == 1:
-            for left, right in iterator:
-                yield self._guarded(frame_config, left, right, want_confidence, errors)
-            return
+        _keep_freed_memory()
         pending = deque()
         pool = ThreadPoolExecutor(frames, thread_name_prefix="csw-frame")
         try:
@@ -258,7 +277,7 @@ class Matcher:
                     while pending:
                         yield pending.popleft().result()
                     raise
-                pending.append(pool.submit(self._guarded, frame_config, left, right,
+                pending.append(pool.submit(self._guarded, config, left, right,
                                            want_confidence, errors))
                 if len(pending) >= frames:
                     yield pending.popleft().result()
@@ -278,6 +297,44 @@ class Matcher:
             if errors == "raise":
                 raise
             return exc
+
+
+# Frames side by side allocate their maps in the pool threads' heaps, which glibc hands
+# back to the system as each frame's arrays are freed, so that the next frame faults its
+# pages in again: about 500 page faults and 1.8 ms of system time a 640x480 frame on two
+# threads, 4% of the stream's frames a second.  A stream raises glibc's thresholds once a
+# process: blocks under FRAME_HEAP_MMAP bytes come from the heaps, and a heap keeps up to
+# FRAME_HEAP_TRIM bytes free (csw.scale.tiled gives memory back itself, malloc_trim).
+FRAME_HEAP_MMAP = 8 << 20
+FRAME_HEAP_TRIM = 64 << 20
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # glibc's malloc.h
+_HEAP_SET = []
+
+
+def _keep_freed_memory():
+    """Set glibc's thresholds for frames side by side, once a process; a no-op where
+    there is no glibc."""
+    if _HEAP_SET:
+        return
+    _HEAP_SET.append(True)
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt(_M_MMAP_THRESHOLD, FRAME_HEAP_MMAP)
+        libc.mallopt(_M_TRIM_THRESHOLD, FRAME_HEAP_TRIM)
+    except (OSError, AttributeError):
+        pass
+
+
+def _shape_of(pair):
+    """(H, W) of a stream's pair whose left image is an array; None otherwise (a path,
+    whose size is known once read, or not a pair: its frame reports that)."""
+    if isinstance(pair, (tuple, list)) and len(pair) == 2:
+        left = pair[0]
+        if isinstance(left, np.ndarray) and left.ndim in (2, 3):
+            return left.shape[:2]
+    return None
 
 
 # A frame with more work than this (pixels x disparities) is matched in row stripes on

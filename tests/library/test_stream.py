@@ -150,3 +150,47 @@ def test_a_signal_during_a_held_block_is_acted_on_after_it():
         assert seen == [signal.SIGINT]
     finally:
         signal.signal(signal.SIGINT, saved)
+
+
+def test_a_known_range_matches_the_first_frame_beside_the_next(monkeypatch):
+    """Nothing is learnt from a first frame whose range is given: it is matched in the
+    frames' pool like the rest, not alone in the caller's thread; with a range "auto" it
+    is matched alone, first."""
+    import threading
+
+    from csw.matching.matcher import Matcher
+
+    where = []
+    guarded = Matcher._guarded
+
+    def spy(self, *args):
+        where.append(threading.current_thread().name)
+        return guarded(self, *args)
+
+    monkeypatch.setattr(Matcher, "_guarded", spy)
+    pairs = frames(4)
+    results = list(csw.Matcher(dmax=15).stream(pairs, in_flight=2))
+    assert all(name.startswith("csw-frame") for name in where), where
+    for (left, right), result in zip(pairs, results, strict=True):
+        same(result, csw.match(left, right, dmax=15))
+    where.clear()
+    list(csw.Matcher().stream(pairs, in_flight=2))
+    assert where[0] == threading.current_thread().name
+    assert all(name.startswith("csw-frame") for name in where[1:]), where
+
+
+def test_frames_side_by_side_run_where_glibc_is_not_found(monkeypatch):
+    import ctypes
+
+    from csw.matching import matcher
+
+    def no_libc(*args, **kwargs):
+        raise OSError("no libc.so.6 here")
+
+    monkeypatch.setattr(matcher, "_HEAP_SET", [])
+    monkeypatch.setattr(ctypes, "CDLL", no_libc)
+    pairs = frames(3)
+    results = list(csw.Matcher(dmax=15).stream(pairs, in_flight=2))
+    for (left, right), result in zip(pairs, results, strict=True):
+        same(result, csw.match(left, right, dmax=15))
+    assert matcher._HEAP_SET == [True]  # tried once, not again each stream
