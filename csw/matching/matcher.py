@@ -6,6 +6,7 @@ chooses between the two for files.  Both prepare through :mod:`csw.matching.setu
 
 import functools
 import itertools
+import os
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -256,7 +257,7 @@ class Matcher:
     def _side_by_side(self, iterator, frames, config, want_confidence, errors):
         """The frames of ``iterator`` matched ``frames`` at a time with ``config``, yielded
         in order, reading at most ``frames`` ahead of the one yielded."""
-        from concurrent.futures import ThreadPoolExecutor
+        from concurrent.futures import wait
 
         # Frames in flight on a pool of their own, not csw.scale.executor.run_tasks (the
         # engine of batches and stripes, which yields tasks as they finish and queues
@@ -266,7 +267,7 @@ class Matcher:
         # level again: the row stripes inside one frame.
         _keep_freed_memory()
         pending = deque()
-        pool = ThreadPoolExecutor(frames, thread_name_prefix="csw-frame")
+        pool = _frame_pool(frames)
         try:
             while True:
                 try:
@@ -286,7 +287,7 @@ class Matcher:
         finally:
             for future in pending:  # a Ctrl-C or an error: start nothing more
                 future.cancel()
-            pool.shutdown(wait=True)
+            wait(pending)  # and the frames running finish first
 
     def _guarded(self, config, left, right, want_confidence, errors):
         """One frame of a stream; its exception returned, not raised, when errors is
@@ -325,6 +326,21 @@ def _keep_freed_memory():
         libc.mallopt(_M_TRIM_THRESHOLD, FRAME_HEAP_TRIM)
     except (OSError, AttributeError):
         pass
+
+
+# The frames' threads, kept from stream to stream: each thread keeps its own scratch
+# (kernels/workspace.py), a 640x480 d 0..63 frame's slabs 78 MB, which new threads would
+# fault in again on their first frames (a tenth of a 24-frame stream's time).
+_FRAME_POOLS = {}  # (pid, frames) -> ThreadPoolExecutor: a forked child has no threads
+
+
+def _frame_pool(frames):
+    from concurrent.futures import ThreadPoolExecutor
+
+    key = (os.getpid(), frames)
+    if key not in _FRAME_POOLS:
+        _FRAME_POOLS[key] = ThreadPoolExecutor(frames, thread_name_prefix="csw-frame")
+    return _FRAME_POOLS[key]
 
 
 def _shape_of(pair):

@@ -194,3 +194,26 @@ def test_frames_side_by_side_run_where_glibc_is_not_found(monkeypatch):
     for (left, right), result in zip(pairs, results, strict=True):
         same(result, csw.match(left, right, dmax=15))
     assert matcher._HEAP_SET == [True]  # tried once, not again each stream
+
+
+def test_streams_of_one_matcher_reuse_their_frame_threads(monkeypatch):
+    """A thread's scratch (the slabs of a semi-global match) lives with the thread: each
+    stream's frames run on the same threads, not on new ones that would make it again."""
+    import threading
+
+    from csw.matching.matcher import Matcher
+
+    seen = []
+    guarded = Matcher._guarded
+
+    def spy(self, *args):
+        seen.append(threading.current_thread())  # the Thread objects, kept alive
+        return guarded(self, *args)
+
+    monkeypatch.setattr(Matcher, "_guarded", spy)
+    matcher = csw.Matcher(dmax=15)
+    list(matcher.stream(frames(4), in_flight=2))
+    first = set(seen)
+    seen.clear()
+    list(matcher.stream(frames(4), in_flight=2))
+    assert set(seen) <= first and len(first) <= 2
