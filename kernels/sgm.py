@@ -19,7 +19,7 @@ row, so one sweep down does it all: each band's costs, its paths and its winners
 paths' states carried to the next band; the bands are then made small enough to stay
 in the caches (SINGLE_PASS_BAND_BYTES).  Every core works on one band at a time: the
 costs split the band's columns, each block's path down made with them row by row
-(fused, kernels/jit/sgm.py: each column's path is its own), the path up its columns,
+(fused, kernels/jit/sgm.py: each column's path is its own) and its path up right after,
 the rows' last step its rows; the diagonal paths cross columns and run in one thread.
 A band in one thread also makes its path up within the last step, the rows going up.
 Each step asks for the next row's slab lines while it works on a row (kernels/jit/sgm.py).
@@ -330,17 +330,25 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
 
         runtime.run_stripes(stripe, count, count, work, STEP_DIRECT_WORK)
 
-    def costs_and_down(y0, y1, add):
+    def costs_and_down(y0, y1, add, then_up=False):
         """The band's costs and the vertical path down through them (add: as vertical's),
         fused, the band's columns split between the threads (each column's path is its
-        own; each thread sums w - 1 columns more)."""
+        own; each thread sums w - 1 columns more); then_up: each block's path up next, in
+        the same task (its last rows' costs and sums are still in the caches, and the
+        threads need not meet in between)."""
         count = 1 if one_thread(y0, y1) else min(n_threads, width)
         edges = runtime.even_split(width, count)
 
         def stripe(i, stop):
-            return run(**dict(base, **cost_scratch(), state=down, mins=down_mins, add=add,
-                              step=COSTS, y0=y0, y1=y1, band_y0=y0,
-                              x0=int(edges[i]), x1=int(edges[i + 1]), stop=stop))
+            x0, x1 = int(edges[i]), int(edges[i + 1])
+            status = run(**dict(base, **cost_scratch(), state=down, mins=down_mins, add=add,
+                                step=COSTS, y0=y0, y1=y1, band_y0=y0, x0=x0, x1=x1,
+                                stop=stop))
+            if then_up:
+                status = run(**dict(base, state=up, mins=up_mins, step=VERTICAL, y0=y0,
+                                    y1=y1, band_y0=y0, x0=x0, x1=x1, direction=-1, add=1,
+                                    stop=stop))
+            return status
 
         runtime.run_stripes(stripe, count, count, (y1 - y0) * work_per_row,
                             STEP_DIRECT_WORK)
@@ -351,12 +359,10 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         diagonal(y0, y1, ((up_l, up_l_mins), (up_r, up_r_mins)), -1, 1)
 
     def up_and_select(y0, y1, before_select=None):
-        """The vertical path up through the band, adding into its sums, and the rows'
-        paths and winners; before_select(y0, y1): what else must add into the sums
-        first."""
+        """The rows' paths and winners, the vertical path up made first (with the costs,
+        in threads; see costs_and_down) or with the rows (in one thread);
+        before_select(y0, y1): what else must add into the sums first."""
         fused = one_thread(y0, y1)
-        if not fused:
-            vertical(y0, y1, up, up_mins, -1, 1)
         if before_select is not None:
             before_select(y0, y1)
         if fused:
@@ -381,20 +387,6 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         line = np.full((2, ndisp + 2 * pad), big, acc)
         return dict(line=line, right_best=np.empty(right_width, acc),
                     right_d=np.empty(right_width, np.int16))
-
-    def vertical(y0, y1, state, mins, direction, add):
-        count = min(n_threads, width)
-        work = (y1 - y0) * work_per_row
-        if work < STEP_DIRECT_WORK:
-            count = 1
-        edges = runtime.even_split(width, count)
-
-        def stripe(i, stop):
-            return run(**dict(base, state=state, mins=mins, step=VERTICAL, y0=y0, y1=y1,
-                              band_y0=y0, x0=int(edges[i]), x1=int(edges[i + 1]),
-                              direction=direction, add=add, stop=stop))
-
-        runtime.run_stripes(stripe, count, count, work, STEP_DIRECT_WORK)
 
     def diagonal(y0, y1, pair, direction, add):
         (state, mins), (other, other_mins) = pair
@@ -427,7 +419,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                 for array in (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
                                                   if diagonals else ()):
                     _reset(array, pad)
-            costs_and_down(y0, y1, 0)
+            costs_and_down(y0, y1, 0, then_up=not one_thread(y0, y1))
             up_and_select(y0, y1, both_diagonals if diagonals else None)
 
     if single_pass:  # the states go down from band to band
