@@ -77,13 +77,18 @@ def thread_count(threads):
     return int(threads)
 
 
-_POOLS = {}  # (pid, size) -> ThreadPoolExecutor: a forked child has the object, not threads
+# (pid, name, size) -> ThreadPoolExecutor: a forked child has the object, not threads.
+_POOLS = {}
 
 
-def _pool(size):
-    key = (os.getpid(), size)
+def kept_pool(size, name="csw-kernel"):
+    """This process's pool of ``size`` threads called ``name``, made once and kept: a
+    thread keeps its scratch from run to run (kernels/workspace.py).  The row stripes'
+    pool is "csw-kernel"; a stream's frames have their own ("csw-frame"), since a
+    frame's own stripes may come here."""
+    key = (os.getpid(), name, size)
     if key not in _POOLS:
-        _POOLS[key] = ThreadPoolExecutor(max_workers=size, thread_name_prefix="csw-kernel")
+        _POOLS[key] = ThreadPoolExecutor(max_workers=size, thread_name_prefix=name)
     return _POOLS[key]
 
 
@@ -108,7 +113,7 @@ def run_stripes(task, count, threads, work, direct_work=DIRECT_WORK):
         # starting frames.
         return [task(i, stop) for i in range(count)]
     inline = count <= threads and work < INLINE_WORK
-    futures = [_pool(threads).submit(task, i, stop) for i in range(count - inline)]
+    futures = [kept_pool(threads).submit(task, i, stop) for i in range(count - inline)]
     try:
         last = [task(count - 1, stop)] if inline else []
         pending = futures

@@ -334,8 +334,8 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         """The band's costs and the vertical path down through them (add: as vertical's),
         fused, the band's columns split between the threads (each column's path is its
         own; each thread sums w - 1 columns more); then_up: each block's path up next, in
-        the same task (its last rows' costs and sums are still in the caches, and the
-        threads need not meet in between)."""
+        the same task, so that the threads need not meet in between (a hand-off saved;
+        the block's slabs are too big to be still in the caches)."""
         count = 1 if one_thread(y0, y1) else min(n_threads, width)
         edges = runtime.even_split(width, count)
 

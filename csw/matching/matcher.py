@@ -6,7 +6,6 @@ chooses between the two for files.  Both prepare through :mod:`csw.matching.setu
 
 import functools
 import itertools
-import os
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -267,7 +266,10 @@ class Matcher:
         # level again: the row stripes inside one frame.
         _keep_freed_memory()
         pending = deque()
-        pool = _frame_pool(frames)
+        # The frames' threads are kept from stream to stream, with their scratch: new
+        # ones would fault in a 640x480 d 0..63 frame's 78 MB of slabs again on their
+        # first frames (a tenth of a 24-frame stream's time).
+        pool = kernels.runtime.kept_pool(frames, "csw-frame")
         try:
             while True:
                 try:
@@ -326,21 +328,6 @@ def _keep_freed_memory():
         libc.mallopt(_M_TRIM_THRESHOLD, FRAME_HEAP_TRIM)
     except (OSError, AttributeError):
         pass
-
-
-# The frames' threads, kept from stream to stream: each thread keeps its own scratch
-# (kernels/workspace.py), a 640x480 d 0..63 frame's slabs 78 MB, which new threads would
-# fault in again on their first frames (a tenth of a 24-frame stream's time).
-_FRAME_POOLS = {}  # (pid, frames) -> ThreadPoolExecutor: a forked child has no threads
-
-
-def _frame_pool(frames):
-    from concurrent.futures import ThreadPoolExecutor
-
-    key = (os.getpid(), frames)
-    if key not in _FRAME_POOLS:
-        _FRAME_POOLS[key] = ThreadPoolExecutor(frames, thread_name_prefix="csw-frame")
-    return _FRAME_POOLS[key]
 
 
 def _shape_of(pair):
