@@ -1,6 +1,8 @@
-"""Compiling missing kernel entries with Numba, under the cache's lock: in one worker
-process per core (Numba compiles on one), each a Python of its own that imports nothing
-of the caller's program, or here when only one is missing or a worker failed."""
+"""Compiling missing kernel entries with Numba, under the cache's lock: in worker
+processes, one per core (Numba compiles on one), each a Python of its own that imports
+nothing of the caller's program and compiles with csw's CPU features
+(kernels/store.py:compile_features); here only what a worker failed to compile, where
+its error shows as it is."""
 
 import ctypes
 import json
@@ -11,7 +13,7 @@ import time
 from pathlib import Path
 
 from .catalogue import compile_seconds
-from .store import entry_key, is_stored, store
+from .store import compile_features, entry_key, is_stored, store
 
 # Each kernel's compile takes the seconds its catalogue row gives (kernels/catalogue.py),
 # measured on the 2-core AMD EPYC csw is measured on, shared with other work as a CI
@@ -44,9 +46,11 @@ def compile_missing(folder, missing, progress=None, notice=True):
         notify(f"csw: compiling csw's kernels for this CPU, once: about {estimate:.0f} s "
                f"(later runs load them from {folder})")
     count = len(missing)
-    if len(shares) > 1:
-        missing = _compile_in_processes(folder, missing, shares, progress)
-    for kernel, variant in missing:  # all of them on one core, or what the others left
+    missing = _compile_in_processes(folder, missing, shares, progress)
+    # What a worker left: compiled here, to show its error.  This process's Numba takes
+    # its own CPU features (its code generator is made once a process, maybe before csw
+    # ran), so an entry made here may be narrower than the workers' but is as exact.
+    for kernel, variant in missing:
         from .jit import build
 
         key = entry_key(kernel, variant)
@@ -78,10 +82,13 @@ def _shares(missing, workers):
 
 def _compile_in_processes(folder, missing, shares, progress=None):
     """Compile ``missing`` in one process per share (see _shares), all at once: Numba
-    compiles on one core.  The caller holds the cache's lock.  Returns the entries still
+    compiles on one core.  Their environment names csw's CPU features
+    (compile_features).  The caller holds the cache's lock.  Returns the entries still
     missing (a worker failed), for the caller to compile here, where an error shows as
     it is."""
     code = _WORKER.format(package=__package__)
+    features = compile_features()
+    env = None if features is None else dict(os.environ, NUMBA_CPU_FEATURES=features)
     # -P: no current folder on the workers' path, where a folder named like the package
     # (a source checkout) could hand them other kernel sources than this process's,
     # compiled into this process's cache under its fingerprint.
@@ -89,7 +96,7 @@ def _compile_in_processes(folder, missing, shares, progress=None):
                                json.dumps([(k, list(v)) for k, v in share]),
                                str(os.getpid())],
                               stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL) for share in shares]
+                              stderr=subprocess.DEVNULL, env=env) for share in shares]
     reported = set()
     try:
         while True:
