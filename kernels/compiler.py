@@ -1,8 +1,9 @@
-"""Compiling missing kernel entries with Numba, under the cache's lock: in worker
-processes, one per core (Numba compiles on one), each a Python of its own that imports
-nothing of the caller's program and compiles with csw's CPU features
-(kernels/store.py:compile_features); here only what a worker failed to compile, where
-its error shows as it is."""
+"""Compiling missing kernel entries with Numba, under the cache's lock: in one worker
+process per core (Numba compiles on one), each a Python of its own that imports nothing
+of the caller's program, or here when only one is missing or a worker failed.  Where
+csw compiles with CPU features of its own (kernels/store.py:compile_features), every
+entry is compiled by a worker, whose environment carries them: this process's Numba
+may have made its code generator before, with its own."""
 
 import ctypes
 import json
@@ -46,10 +47,10 @@ def compile_missing(folder, missing, progress=None, notice=True):
         notify(f"csw: compiling csw's kernels for this CPU, once: about {estimate:.0f} s "
                f"(later runs load them from {folder})")
     count = len(missing)
-    missing = _compile_in_processes(folder, missing, shares, progress)
-    # What a worker left: compiled here, to show its error.  This process's Numba takes
-    # its own CPU features (its code generator is made once a process, maybe before csw
-    # ran), so an entry made here may be narrower than the workers' but is as exact.
+    if len(shares) > 1 or compile_features() is not None:
+        missing = _compile_in_processes(folder, missing, shares, progress)
+    # All of them on one core, or what a worker left (here its error shows).  An entry
+    # compiled here takes this process's CPU features: maybe narrower, as exact.
     for kernel, variant in missing:
         from .jit import build
 

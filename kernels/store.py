@@ -54,9 +54,10 @@ def compile_features():
     """The CPU features csw's kernels are compiled with, in NUMBA_CPU_FEATURES' form
     (kernels/compiler.py gives them to its compiles), or None for Numba's own: the
     user's NUMBA_CPU_FEATURES, or a NUMBA_CPU_NAME naming a CPU, are followed as they
-    are.  Else, where the CPU has AVX-512 with 16-bit lanes (AVX-512BW), the host's
+    are.  Else, on an Intel CPU with AVX-512 with 16-bit lanes (AVX-512BW), the host's
     features less LLVM's "prefer-256-bit" tuning: LLVM vectorises loops 512 bits wide on
-    AMD's Zen 4 but 256 on every Intel AVX-512 CPU.  On a 2-core Intel Xeon (LLVM's
+    AMD's Zen 4 (its znver names: None here, nothing to change) but 256 on every Intel
+    AVX-512 CPU.  On a 2-core Intel Xeon (LLVM's
     rocketlake), csw's 8- and 16-bit loops so compiled were never slower than at 256 bits
     in alternating processes, and up to a tenth faster (a KITTI semi-global match on one
     thread: 88 against 93 ms); the results are the same bit for bit."""
@@ -66,7 +67,7 @@ def compile_features():
     import llvmlite.binding as llvm
 
     features = llvm.get_host_cpu_features().flatten()
-    if "+avx512bw" not in features.split(","):
+    if "+avx512bw" not in features.split(",") or llvm.get_host_cpu_name().startswith("znver"):
         return None
     return f"{features},-prefer-256-bit"
 
@@ -90,9 +91,11 @@ def _fingerprint():
                      llvm.get_host_cpu_features().flatten(),
                      os.environ.get("NUMBA_CPU_NAME", ""),
                      os.environ.get("NUMBA_CPU_FEATURES", ""),
-                     os.environ.get("NUMBA_OPT", ""),
-                     compile_features() or ""):
+                     os.environ.get("NUMBA_OPT", "")):
             digest.update(str(part).encode() + b"\0")
+        features = compile_features()
+        if features is not None:  # (a cache made without them keeps its folder)
+            digest.update(features.encode() + b"\0")
         _FINGERPRINT["value"] = f"{llvm.get_host_cpu_name()}-{digest.hexdigest()[:16]}"
     return _FINGERPRINT["value"]
 

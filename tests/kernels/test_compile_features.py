@@ -25,14 +25,22 @@ def host(monkeypatch):
     monkeypatch.delenv("NUMBA_CPU_FEATURES", raising=False)
     monkeypatch.delenv("NUMBA_CPU_NAME", raising=False)
 
-    def set_features(text):
+    def set_features(text, name="rocketlake"):
         monkeypatch.setattr(llvm, "get_host_cpu_features", lambda: _Features(text))
+        monkeypatch.setattr(llvm, "get_host_cpu_name", lambda: name)
     return set_features
 
 
-def test_an_avx512_cpu_compiles_without_llvms_256_bit_preference(host):
-    host("+avx2,+avx512f,+avx512bw,+sse4.2")
+@pytest.mark.parametrize("name", ["skylake-avx512", "icelake-server", "sapphirerapids"])
+def test_an_intel_avx512_cpu_compiles_without_llvms_256_bit_preference(host, name):
+    host("+avx2,+avx512f,+avx512bw,+sse4.2", name)
     assert store.compile_features() == "+avx2,+avx512f,+avx512bw,+sse4.2,-prefer-256-bit"
+
+
+@pytest.mark.parametrize("name", ["znver4", "znver5"])
+def test_amds_avx512_cpus_keep_numbas_features_which_llvm_vectorises_512_wide(host, name):
+    host("+avx2,+avx512f,+avx512bw", name)
+    assert store.compile_features() is None
 
 
 @pytest.mark.parametrize("features", ["+avx2,+sse4.2", "+avx2,+avx512f,-avx512bw"])
@@ -63,6 +71,23 @@ def test_the_cache_folder_follows_the_compile_features(monkeypatch):
     monkeypatch.setattr(store, "compile_features", lambda: "+avx512bw,-prefer-256-bit")
     monkeypatch.setattr(store, "_FINGERPRINT", {})
     assert store._fingerprint() != narrow
+
+
+def test_one_missing_entry_goes_to_a_worker_only_with_features_of_csws_own(tmp_path,
+                                                                           monkeypatch):
+    """This process's Numba may have made its code generator with its own features
+    (kernels/compiler.py): with csw's, even one entry is compiled by a worker."""
+    calls = []
+
+    def workers(folder, missing, shares, progress=None):
+        calls.append(len(shares))
+        return []  # as if every entry was stored
+    monkeypatch.setattr(compiler, "_compile_in_processes", workers)
+    monkeypatch.setattr(compiler, "_shares", lambda missing, n: [list(missing)])
+    entry = ("census", ("u8", 9))
+    monkeypatch.setattr(compiler, "compile_features", lambda: "+avx512bw,-prefer-256-bit")
+    assert compiler.compile_missing(tmp_path, [entry], notice=False) == 1
+    assert calls == [1]
 
 
 @pytest.mark.parametrize("features", ["+avx512bw,-prefer-256-bit", None])
