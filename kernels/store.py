@@ -57,10 +57,10 @@ def compile_features():
     are.  Else, on an Intel CPU with AVX-512 with 16-bit lanes (AVX-512BW), the host's
     features less LLVM's "prefer-256-bit" tuning: LLVM vectorises loops 512 bits wide on
     AMD's Zen 4 (its znver names: None here, nothing to change) but 256 on every Intel
-    AVX-512 CPU.  On a 2-core Intel Xeon (LLVM's
-    rocketlake), csw's 8- and 16-bit loops so compiled were never slower than at 256 bits
-    in alternating processes, and up to a tenth faster (a KITTI semi-global match on one
-    thread: 88 against 93 ms); the results are the same bit for bit."""
+    AVX-512 CPU.  On a 2-core Intel Xeon (LLVM's rocketlake), csw's 8- and 16-bit loops
+    so compiled were never slower than at 256 bits in alternating processes, and at
+    times up to a tenth faster (a KITTI semi-global match on one thread: 88 against 93
+    ms); the results are the same bit for bit."""
     named = os.environ.get("NUMBA_CPU_NAME", "")
     if os.environ.get("NUMBA_CPU_FEATURES") or (named and named != "host"):
         return None
