@@ -73,21 +73,27 @@ def test_the_cache_folder_follows_the_compile_features(monkeypatch):
     assert store._fingerprint() != narrow
 
 
-def test_one_missing_entry_goes_to_a_worker_only_with_features_of_csws_own(tmp_path,
-                                                                           monkeypatch):
+@pytest.mark.parametrize("features", ["+avx512bw,-prefer-256-bit", None])
+def test_one_missing_entry_goes_to_a_worker_only_with_features_of_csws_own(
+        tmp_path, monkeypatch, features):
     """This process's Numba may have made its code generator with its own features
-    (kernels/compiler.py): with csw's, even one entry is compiled by a worker."""
-    calls = []
+    (kernels/compiler.py): with csw's, even one entry is compiled by a worker; without,
+    here (no worker to start)."""
+    from csw.kernels.jit import build
+
+    by_workers, here = [], []
 
     def workers(folder, missing, shares, progress=None):
-        calls.append(len(shares))
+        by_workers.extend(missing)
         return []  # as if every entry was stored
     monkeypatch.setattr(compiler, "_compile_in_processes", workers)
     monkeypatch.setattr(compiler, "_shares", lambda missing, n: [list(missing)])
+    monkeypatch.setattr(build, "compile_entry", lambda k, v: here.append((k, v)) or ("s", 0))
+    monkeypatch.setattr(compiler, "store", lambda *args: None)
+    monkeypatch.setattr(compiler, "compile_features", lambda: features)
     entry = ("census", ("u8", 9))
-    monkeypatch.setattr(compiler, "compile_features", lambda: "+avx512bw,-prefer-256-bit")
     assert compiler.compile_missing(tmp_path, [entry], notice=False) == 1
-    assert calls == [1]
+    assert (by_workers, here) == (([entry], []) if features else ([], [entry]))
 
 
 @pytest.mark.parametrize("features", ["+avx512bw,-prefer-256-bit", None])
