@@ -12,8 +12,8 @@ from csw.config import params
                    "every kernel any option can need].")
 def compile_(presets):
     """Compile every kernel a run can load (any option's values, windows up to 31, 8- and
-    16-bit images) into the kernel cache, so that no later run compiles: about 7 minutes
-    on 2 cores, once.  Run it in a Docker build or a CI cache step; the cache follows
+    16-bit images) into the kernel cache, so that no later run compiles: about half an
+    hour on 2 cores, once.  Run it in a Docker build or a CI cache step; the cache follows
     NUMBA_CACHE_DIR (or CSW_KERNEL_CACHE).
 
     \b
