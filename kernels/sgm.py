@@ -22,6 +22,12 @@ costs split the band's columns, each block's path down made with them row by row
 (fused, kernels/jit/sgm.py: each column's path is its own) and its path up right after,
 the rows' last step its rows; the diagonal paths cross columns and run in one thread.
 A band in one thread also makes its path up within the last step, the rows going up.
+With 4 paths, a band on two threads is cut into halves, so that every vertical step is
+fused, none a pass of its own over the slabs (which took three times a fused one's
+time): first the top half's costs going down with the path down, beside the bottom
+half's going up with the path up; then the top half's rows going up, each with its step
+of the path up (whose state the bottom half left at the cut), beside the bottom half's
+going down with the path down.
 Each step asks for the next row's slab lines while it works on a row (kernels/jit/sgm.py).
 Results do not depend on the bands or the threads: every split computes the same sums.
 
@@ -370,6 +376,38 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         else:
             rows_step(SELECT, y0, y1, select_scratch)
 
+    def in_halves(y0, y1):
+        """Whether a band's rows are cut into halves, one for each of two threads,
+        rather than split step by step (see above): with 4 paths on two threads; on
+        more, the steps split between all of them took less time."""
+        return not diagonals and n_threads == 2 and y1 - y0 >= 2 and \
+            not one_thread(y0, y1)
+
+    def halves(y0, y1):
+        """The band's costs, vertical paths and winners in two halves (see above):
+        the top one's paths go down first and up second, the bottom one's the other
+        way, each vertical step fused with the costs or the winners."""
+        mid = (y0 + y1) // 2
+        work = (y1 - y0) * work_per_row
+        # (rows, the vertical path made with the costs, and with the winners)
+        top = (y0, mid, (down, down_mins), (up, up_mins))
+        bottom = (mid, y1, (up, up_mins), (down, down_mins))
+
+        def costs_half(i, stop):
+            a, b, (state, mins), _ = (top, bottom)[i]
+            return run(**dict(base, **cost_scratch(), state=state, mins=mins, add=0,
+                              step=COSTS, y0=a, y1=b, band_y0=y0,
+                              direction=1 if i == 0 else -1, stop=stop))
+
+        def select_half(i, stop):
+            a, b, _, (state, mins) = (top, bottom)[i]
+            return run(**dict(base, **select_scratch(), state=state, mins=mins,
+                              fused=1 if i == 0 else 2, step=SELECT, y0=a, y1=b,
+                              band_y0=y0, stop=stop))
+
+        runtime.run_stripes(costs_half, 2, 2, work, STEP_DIRECT_WORK)
+        runtime.run_stripes(select_half, 2, 2, work, STEP_DIRECT_WORK)
+
     def cost_scratch():
         # Hamming costs' ring of the window's rows (kernels/jit/sgm.py): w x Wp x D bytes;
         # a banded match's column sums and ring are indexed by the whole range's d, each
@@ -419,6 +457,9 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                 for array in (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
                                                   if diagonals else ()):
                     _reset(array, pad)
+            if in_halves(y0, y1):
+                halves(y0, y1)
+                continue
             costs_and_down(y0, y1, 0, then_up=not one_thread(y0, y1))
             up_and_select(y0, y1, both_diagonals if diagonals else None)
 

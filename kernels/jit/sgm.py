@@ -17,16 +17,18 @@ taken from S as the fast engine takes them from C.
 
 One entry per variant, its step chosen by a scalar (one compile, not five):
   COSTS      the window costs of image rows y0 <= y < y1 into the band's cost slab
-             with each row's step of the vertical path down
+             with each row's step of the vertical path down (or, the rows going up,
+             of the path up)
   VERTICAL   a vertical path over the band's rows, for the columns x0 <= x < x1
   DIAGONAL   the two diagonal paths going down, or up, over the band's rows
   SELECT     the two horizontal paths of rows y0 <= y < y1, then each pixel's winner
-             (fused: the rows going up, each with its step of the vertical path up)
+             (fused: the rows going up, or down, each with its step of the vertical
+             path that way)
 
 A fused step makes a vertical path's row while the row's costs and sums are in the
 caches, rather than in a pass of its own over the slabs, which reads them from memory:
-the costs step always, the winners step in one thread's way through a band
-(kernels/sgm.py).
+the costs step always, the winners step where one thread takes a band's rows, or each
+of two threads half of them (kernels/sgm.py).
 
 Path states: state (2, W, D + 2) two buffers of each column's L along a vertical or
 diagonal path (the row before and the row being made), with a sentinel (``big``) at both
@@ -314,7 +316,9 @@ def _make(cost, cost_type, acc, negative, banded):
         sums moved down the rows, row sums slid along each row (kernels/jit/fast.py).
         Pixels x0 <= x < x1 only (their columns' sums: w - 1 more).  Each row's step of
         the vertical path down through those pixels (state, mins; add as for vertical)
-        follows its costs, while they are in the caches; y0 is the band's first row.
+        follows its costs, while they are in the caches; direction -1: the rows go up
+        from y1 - 1 (the column sums moved up), each with its step of the path up.
+        band_y0 is the slab's first row.
         A banded variant with a window works in tiles of rows (sc[tile_rows]): each
         column's sums cover only the slots its pixels search in the tile (tile_spans),
         and each pixel sums its own slots (band_row).  With a window of 1 it makes each
@@ -331,11 +335,14 @@ def _make(cost, cost_type, acc, negative, banded):
         add = sc[SC.add]
         p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
         x0, x1 = sc[SC.x0], sc[SC.x1]
+        direction = sc[SC.direction]
+        up = direction < 0
         if w == 1:  # each pixel's own cost: no sums to move
             wr = right_rev.shape[1]
-            for y in range(y0, y1):
+            for i in range(y1 - y0):
                 if stop_requested(stop):
                     return 0
+                y = y1 - 1 - i if up else y0 + i
                 out = row_costs if banded else costs[y - band_y0]
                 left, right = left_p[y], right_rev[y]
                 for x in range(x0, x1):
@@ -352,15 +359,17 @@ def _make(cost, cost_type, acc, negative, banded):
                         c[k] = cmax if k < real else pad_cost
                 if banded:
                     gather(out, costs[y - band_y0], starts[y], x0, x1)
-                vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
-                             band_y0, x0, x1, add, p1, p2, never)
+                vertical_row(costs, sums, state, mins, starts, i, y, direction, band_y0,
+                             x0, x1, add, p1, p2, never)
             vertical_end(state, mins, y1 - y0, x0, x1)
             return 0
         tile = sc[SC.tile_rows] if banded else max(y1 - y0, 1)
         if not banded:  # past the range too (whole vectors): sums made, never read
             whole_spans(spans, dmin, ndisp, x0, x1, w)
-        for t0 in range(y0, y1, tile):
-            t1 = min(t0 + tile, y1)
+        for t in range(0, y1 - y0, tile):
+            # Tiles from the first row of the run: the bottom one going up.
+            t0, t1 = (max(y1 - t - tile, y0), y1 - t) if up else (y0 + t, min(y0 + t + tile, y1))
+            first = t1 - 1 if up else t0
             if banded:
                 tile_spans(starts, t0, t1, costs.shape[2], w, dmin, ndisp, spans, x0, x1)
             for j in range(col_sums.shape[0]):
@@ -368,27 +377,32 @@ def _make(cost, cost_type, acc, negative, banded):
                 for k in range(spans[1, j] - spans[0, j]):
                     s[k] = 0
             for a in range(w):
-                column_add(left_p[t0 + a], right_rev[t0 + a], col_sums, dmin,
-                           ring[(t0 + a) % w if ringed else 0], spans)
-            for y in range(t0, t1):
+                column_add(left_p[first + a], right_rev[first + a], col_sums, dmin,
+                           ring[(first + a) % w if ringed else 0], spans)
+            for i_tile in range(t1 - t0):
                 if stop_requested(stop):
                     return 0
-                if y > t0:
-                    # Row y + w - 1 enters, row y - 1 leaves: one slot of the ring.
-                    column_move(left_p[y + w - 1], right_rev[y + w - 1], left_p[y - 1],
-                                right_rev[y - 1], col_sums, dmin,
-                                ring[(y - 1) % w if ringed else 0], spans)
+                y = t1 - 1 - i_tile if up else t0 + i_tile
+                if i_tile > 0:
+                    # Going down, padded row y + w - 1 enters and y - 1 leaves; going up,
+                    # y enters and y + w leaves: one slot of the ring either way.
+                    enter, leave = (y, y + w) if up else (y + w - 1, y - 1)
+                    column_move(left_p[enter], right_rev[enter], left_p[leave],
+                                right_rev[leave], col_sums, dmin,
+                                ring[leave % w if ringed else 0], spans)
                 # The next row's costs and (but for the state alone) its sums are
                 # stored next: their lines asked for now, so that those stores find them
                 # in the caches.
-                costs_too = y + 1 < y1
+                next_y = y - 1 if up else y + 1
+                costs_too = y0 <= next_y < y1
                 sums_too = costs_too and add != 2
-                next_costs = costs[y + 1 - band_y0 if costs_too else 0]
-                next_sums = sums[y + 1 - band_y0 if sums_too else 0]
+                next_costs = costs[next_y - band_y0 if costs_too else 0]
+                next_sums = sums[next_y - band_y0 if sums_too else 0]
+                i = y1 - 1 - y if up else y - y0  # the row's place in the vertical run
                 if banded:
                     band_row(col_sums, row_sums, costs[y - band_y0], starts[y], w, dmin,
                              cmax, x0, x1, next_costs, next_sums, costs_too, sums_too)
-                    vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
+                    vertical_row(costs, sums, state, mins, starts, i, y, direction,
                                  band_y0, x0, x1, add, p1, p2, never)
                     continue
                 row_sums[:] = 0
@@ -412,8 +426,8 @@ def _make(cost, cost_type, acc, negative, banded):
                         row_sums[k] = v
                         c[k] = cost_type(v) if lo <= k < n else \
                             (cmax if k < real else pad_cost)
-                vertical_row(costs, sums, state, mins, starts, y - y0, y, np.int64(1),
-                             band_y0, x0, x1, add, p1, p2, never)
+                vertical_row(costs, sums, state, mins, starts, i, y, direction, band_y0,
+                             x0, x1, add, p1, p2, never)
         vertical_end(state, mins, y1 - y0, x0, x1)
         return 0
 
@@ -618,7 +632,9 @@ def _make(cost, cost_type, acc, negative, banded):
         best, neighbours, and right map, and the row's left-right check (as the fast
         engine's select_row).  fused 1: the rows go up from y1 - 1, each first taking
         its step of the vertical path up (state, mins) into its sums, while they are in
-        the caches; y0..y1 is then the whole band, every column."""
+        the caches; fused 2: the rows go down from y0, each with its step of the path
+        down.  Fused, y0..y1 covers every column, and the path's state enters at y1 - 1
+        (up) or y0 (down)."""
         p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
         y0, y1, band_y0 = sc[SC.y0], sc[SC.y1], sc[SC.band_y0]
         # extras 1: the neighbours' totals; 2: and the second best (kernels/sgm.py)
@@ -630,15 +646,19 @@ def _make(cost, cost_type, acc, negative, banded):
         pad = pad_of(ndisp)
         shift = -dmin if negative else 0
         keyed = sc[SC.keyed] != 0
-        fused = sc[SC.fused] != 0
+        fused = sc[SC.fused]
         for i_row in range(y1 - y0):
             if stop_requested(stop):
                 return 0
-            y = y1 - 1 - i_row if fused else y0 + i_row
-            if fused:
-                # Constants (its own compile, the path's adding step alone in it): with
-                # int64s here the winners step took 7% longer.
+            going_up = fused == 1
+            y = y1 - 1 - i_row if going_up else y0 + i_row
+            # Constants (its own compile, the path's adding step alone in it): with
+            # int64s here the winners step took 7% longer.
+            if going_up:
                 vertical_row(costs, sums, state, mins, starts, i_row, y, -1, band_y0, 0,
+                             width, 1, p1, p2, never)
+            elif fused:
+                vertical_row(costs, sums, state, mins, starts, i_row, y, 1, band_y0, 0,
                              width, 1, p1, p2, never)
             row, total = costs[y - band_y0], sums[y - band_y0]
             # A path starts from a state of zeros with least 0: its first values are
@@ -669,9 +689,10 @@ def _make(cost, cost_type, acc, negative, banded):
             out_disp, out_cost = disp[y], min_cost[y]
             fresh(line[1], pad)
             least = acc(0)
-            # The next row's costs and sums come from memory (fused, its step of the path
-            # up reads them first): asked for here, where the work waits on them less.
-            next_y = y - 1 if fused else y + 1
+            # The next row's costs and sums come from memory (fused, its step of the
+            # vertical path reads them first): asked for here, where the work waits on
+            # them less.
+            next_y = y - 1 if going_up else y + 1
             ask_next = y0 <= next_y < y1
             next_costs = costs[next_y - band_y0 if ask_next else 0]
             next_sums = sums[next_y - band_y0 if ask_next else 0]

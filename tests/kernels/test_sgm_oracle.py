@@ -7,7 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from csw import kernels
-from csw.kernels import sgm
+from csw.kernels import native, sgm
+from csw.kernels.jit.sgm import SC
 from oracle import census, lr_consistent, sgm_match
 
 CENSUS = dict(census_window=3, census_pattern="dense")
@@ -98,6 +99,43 @@ def test_ranges_padded_to_whole_vectors_change_nothing(cost, window, paths, thre
 
 
 @pytest.mark.two_cores
+@pytest.mark.parametrize("narrowed", [False, True])
+def test_two_threads_cut_a_band_into_halves_fusing_every_vertical_step(narrowed,
+                                                                       monkeypatch):
+    """4 paths on two threads: the top half's costs go down and the bottom half's up,
+    then the winners the other way, each with its vertical path (sgm.py, halves), and
+    no vertical path runs as a step of its own; the oracle's sums, bands of odd and even
+    heights, every cost window."""
+    monkeypatch.setattr(sgm, "STEP_DIRECT_WORK", 0)
+    steps = []
+    call = native.Bound.__call__
+
+    def spy(bound):
+        if bound.entry.key.startswith("sgm"):
+            sc = bound.scalars
+            steps.append((sc[SC.step], sc[SC.direction], sc[SC.fused]))
+        return call(bound)
+
+    monkeypatch.setattr(native.Bound, "__call__", spy)
+    rng = np.random.default_rng(60 + narrowed)
+    for height in (9, 12):
+        left, right = pair(rng, height, 17)
+        narrow = dict(starts=random_starts(rng, left.shape, 10, 4), slots=4) \
+            if narrowed else {}
+        for window, cost in ((1, "census"), (3, "sad"), (5, "shd")):
+            kw = dict(window=window, dmin=0, dmax=9, cost=cost, paths=4, p1=40, p2=300)
+            steps.clear()
+            assert_equals_oracle(left, right, threads=2, **kw, **narrow)
+            assert sorted(set(steps)) == [(sgm.COSTS, -1, 0), (sgm.COSTS, 1, 0),
+                                          (sgm.SELECT, 1, 1), (sgm.SELECT, 1, 2)], steps
+            assert len(steps) == 4
+            for band_bytes in (one_row_bands(left, 0, 9) * 2 + 1,
+                               one_row_bands(left, 0, 9) * 5):
+                assert_equals_oracle(left, right, threads=2, band_bytes=band_bytes, **kw,
+                                     **narrow)
+
+
+@pytest.mark.two_cores
 def test_a_taller_bottom_band_changes_nothing(monkeypatch):
     """The bottom band, made once, may be taller than the others (sgm.LAST_BAND_BYTES):
     bands of 2 rows above one of 6, the same sums as one band."""
@@ -135,15 +173,16 @@ def test_narrowed_search_every_cost_window_and_path_count(cost, window, paths):
                              paths=paths, p1=p1, p2=p2, starts=starts, slots=slots)
 
 
+@pytest.mark.parametrize("paths", [4, 8])
 @pytest.mark.parametrize("threads", [1, pytest.param(2, marks=pytest.mark.two_cores)])
-def test_narrowed_search_bands_and_threads_change_nothing(threads, monkeypatch):
+def test_narrowed_search_bands_and_threads_change_nothing(threads, paths, monkeypatch):
     monkeypatch.setattr(sgm, "STEP_DIRECT_WORK", 0)
     rng = np.random.default_rng(threads + 40)
     left, right = pair(rng, 11, 16)
     starts = random_starts(rng, left.shape, 10, 4)
     row = one_row_bands(left, 0, 3)
     for window in (1, 3):
-        kw = dict(window=window, dmin=0, dmax=9, cost="sad", paths=8, p1=40, p2=300,
+        kw = dict(window=window, dmin=0, dmax=9, cost="sad", paths=paths, p1=40, p2=300,
                   starts=starts, slots=4)
         for band_bytes in (row, 2 * row + 1, 5 * row, None):
             assert_equals_oracle(left, right, band_bytes=band_bytes, threads=threads, **kw)
