@@ -102,10 +102,11 @@ def test_ranges_padded_to_whole_vectors_change_nothing(cost, window, paths, thre
 @pytest.mark.parametrize("narrowed", [False, True])
 def test_two_threads_cut_a_band_into_halves_fusing_every_vertical_step(narrowed,
                                                                        monkeypatch):
-    """4 paths on two threads: the top half's costs go down and the bottom half's up,
-    then the winners the other way, each with its vertical path (sgm.py, halves), and
-    no vertical path runs as a step of its own; the oracle's sums, bands of odd and even
-    heights, every cost window."""
+    """4 paths on two threads: the top half's costs go down and the bottom half's up
+    (each thread a block of columns of both), then the winners the other way, a thread
+    a half, each with its vertical path (sgm.py, halves), and no vertical path runs as a
+    step of its own; the oracle's sums, bands of odd and even heights, every cost
+    window."""
     monkeypatch.setattr(sgm, "STEP_DIRECT_WORK", 0)
     steps = []
     call = native.Bound.__call__
@@ -128,7 +129,7 @@ def test_two_threads_cut_a_band_into_halves_fusing_every_vertical_step(narrowed,
             assert_equals_oracle(left, right, threads=2, **kw, **narrow)
             assert sorted(set(steps)) == [(sgm.COSTS, -1, 0), (sgm.COSTS, 1, 0),
                                           (sgm.SELECT, 1, 1), (sgm.SELECT, 1, 2)], steps
-            assert len(steps) == 4
+            assert len(steps) == 6  # a block of columns of each half, a half's winners
             for band_bytes in (one_row_bands(left, 0, 9) * 2 + 1,
                                one_row_bands(left, 0, 9) * 5):
                 assert_equals_oracle(left, right, threads=2, band_bytes=band_bytes, **kw,
