@@ -715,7 +715,23 @@ def _make(cost, cost_type, acc, negative, banded):
                 # least total among the candidates at its smallest k, in one pass.
                 jump = acc(least + p2)
                 next_least = never
-                if may_key and keyed:
+                # Every slot a candidate (all but the pixels near the image's sides): the
+                # minimum without the test per k (KITTI at two threads: a match took
+                # 1-3 ms less, alternating runs).
+                if may_key and keyed and lo == 0 and n == ndisp:
+                    key = np.uint32(0xFFFFFFFF)
+                    for k in range(ndisp):
+                        v = min(min(b[k + 1], jump), acc(min(b[k], b[k + 2]) + p1))
+                        value = acc(c[k] + v - least)
+                        a[k + 1] = value
+                        next_least = min(next_least, value)
+                        total_k = acc(t[k] + value)
+                        t[k] = total_k
+                        key = min(key, np.uint32((np.uint32(total_k) << np.uint32(16)) |
+                                                 np.uint32(k)))
+                    best = acc(key >> np.uint32(16))
+                    first = np.int16(key & np.uint32(0xFFFF))
+                elif may_key and keyed:
                     key = np.uint32(0xFFFFFFFF)
                     for k in range(ndisp):
                         v = min(min(b[k + 1], jump), acc(min(b[k], b[k + 2]) + p1))
