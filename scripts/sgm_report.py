@@ -2,7 +2,8 @@
 
   1. Speed: csw's sgm preset (the whole csw.match call) and its kernel alone against
      OpenCV SGBM (MODE_SGBM, OpenCV's sample settings) and StereoBM, in one process,
-     interleaved, after a warm-up, median of rounds (min / median / max of the ratios):
+     interleaved, after a warm-up, median of rounds (min / median / max of the ratios
+     to each peer's one-thread time):
      KITTI 2015's first frame (1242 x 375, d 0..191) and the 1080p synthetic pair
      (d 0..255), csw with 1 and 2 threads, the peers with 1; and million disparity
      evaluations a second (W * H * D / s) per core.
@@ -60,8 +61,9 @@ def timed(call):
 
 
 def speed(name, left, right, dmax, rounds):
-    """Rows of the speed table for one pair: each method's median seconds, its ratio to
-    SGBM's one-thread time (min / median / max over rounds), and M evaluations/s/core."""
+    """Rows of the speed table for one pair: each method's median seconds, its ratios to
+    SGBM's and StereoBM's one-thread times (min / median / max over rounds), and M
+    evaluations/s/core."""
     ndisp = peers.ndisp16(dmax)
     sgbm, bm = peers.sgbm_sample(ndisp), peers.stereo_bm(ndisp)
 
@@ -95,13 +97,13 @@ def speed(name, left, right, dmax, rounds):
         for key, call in methods.items():
             times[key].append(timed(call))
     peers.cv2.setNumThreads(-1)
-    sgbm_times = times["SGBM, 1 thread"]
     evaluations = left.size * (dmax + 1) / 1e6
     rows = []
     for key, values in times.items():
-        ratios = [t / s for t, s in zip(values, sgbm_times, strict=True)]
+        ratios = [spread([t / s for t, s in zip(values, times[peer], strict=True)])
+                  for peer in ("SGBM, 1 thread", "StereoBM, 1 thread")]
         median = statistics.median(values)
-        rows.append(f"| {name} | {key} | {median * 1000:.0f} | {spread(ratios)} | "
+        rows.append(f"| {name} | {key} | {median * 1000:.0f} | {' | '.join(ratios)} | "
                     f"{evaluations / median / threads[key]:.0f} |")
     return rows
 
@@ -172,7 +174,7 @@ def main():
     parser.add_argument("--output", default="reports/sgm.md")
     parser.add_argument("--data-dir", default=os.environ.get("CSW_DATA_DIR",
                                                              "../shared/datasets"))
-    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--rounds", type=int, default=7)
     args = parser.parse_args()
 
     rows = speed("KITTI 2015 000000, 1242 x 375, d 0..191", *kitti_pair(args.data_dir), 191,
