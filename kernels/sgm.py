@@ -378,8 +378,10 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
 
     def in_halves(y0, y1):
         """Whether a band's rows are cut into halves, one for each of two threads,
-        rather than split step by step (see above): with 4 paths on two threads; on
-        more, the steps split between all of them took less time."""
+        rather than split step by step (see above): with 4 paths on two threads.  On
+        more, the steps stay split between all of them: the halves' winners would keep
+        two busy and leave the others idle (not measured: the hosts here have two
+        cores)."""
         return not diagonals and n_threads == 2 and y1 - y0 >= 2 and width >= 2 and \
             not one_thread(y0, y1)
 
