@@ -472,6 +472,23 @@ def _make(cost, cost_type, acc, negative, banded):
         return best
 
     @njit(**INLINE)
+    def left_step(before, after, cost, totals, k, jump, least, p1):
+        """Slot k of a step of the path from the left (path_step's recurrence, jump =
+        least + P2) into after, its value added into totals; returns (value, total)."""
+        v = min(min(before[k + 1], jump), acc(min(before[k], before[k + 2]) + p1))
+        value = acc(cost[k] + v - least)
+        after[k + 1] = value
+        total = acc(totals[k] + value)
+        totals[k] = total
+        return value, total
+
+    @njit(**INLINE)
+    def key_of(total, k):
+        """A 16-bit total and its slot as one key, total << 16 | k: the least key is the
+        least total at its smallest k."""
+        return np.uint32((np.uint32(total) << np.uint32(16)) | np.uint32(k))
+
+    @njit(**INLINE)
     def pad_of(slots):
         """The sentinels each side of a path state's ``slots`` values (see above; the
         driver's kernels/sgm.py:pad_of)."""
@@ -715,45 +732,29 @@ def _make(cost, cost_type, acc, negative, banded):
                 # least total among the candidates at its smallest k, in one pass.
                 jump = acc(least + p2)
                 next_least = never
-                # Every slot a candidate (all but the pixels near the image's sides): the
-                # minimum without the test per k (KITTI at two threads: a match took
-                # 1-3 ms less, alternating runs).
-                if may_key and keyed and lo == 0 and n == ndisp:
+                if may_key and keyed:
                     key = np.uint32(0xFFFFFFFF)
-                    for k in range(ndisp):
-                        v = min(min(b[k + 1], jump), acc(min(b[k], b[k + 2]) + p1))
-                        value = acc(c[k] + v - least)
-                        a[k + 1] = value
-                        next_least = min(next_least, value)
-                        total_k = acc(t[k] + value)
-                        t[k] = total_k
-                        key = min(key, np.uint32((np.uint32(total_k) << np.uint32(16)) |
-                                                 np.uint32(k)))
-                    best = acc(key >> np.uint32(16))
-                    first = np.int16(key & np.uint32(0xFFFF))
-                elif may_key and keyed:
-                    key = np.uint32(0xFFFFFFFF)
-                    for k in range(ndisp):
-                        v = min(min(b[k + 1], jump), acc(min(b[k], b[k + 2]) + p1))
-                        value = acc(c[k] + v - least)
-                        a[k + 1] = value
-                        next_least = min(next_least, value)
-                        total_k = acc(t[k] + value)
-                        t[k] = total_k
-                        candidate = np.uint32((np.uint32(total_k) << np.uint32(16)) |
-                                              np.uint32(k))
-                        key = min(key, candidate if lo <= k < n else np.uint32(0xFFFFFFFF))
+                    if lo == 0 and n == ndisp:
+                        # Every slot a candidate (all but the pixels near the image's
+                        # sides): the minimum without the test per k (KITTI at two
+                        # threads: a match took 1-3 ms less, alternating runs).
+                        for k in range(ndisp):
+                            value, total_k = left_step(b, a, c, t, k, jump, least, p1)
+                            next_least = min(next_least, value)
+                            key = min(key, key_of(total_k, k))
+                    else:
+                        for k in range(ndisp):
+                            value, total_k = left_step(b, a, c, t, k, jump, least, p1)
+                            next_least = min(next_least, value)
+                            key = min(key, key_of(total_k, k) if lo <= k < n else
+                                      np.uint32(0xFFFFFFFF))
                     best = acc(key >> np.uint32(16))
                     first = np.int16(key & np.uint32(0xFFFF))
                 else:
                     best = never
                     for k in range(ndisp):
-                        v = min(min(b[k + 1], jump), acc(min(b[k], b[k + 2]) + p1))
-                        value = acc(c[k] + v - least)
-                        a[k + 1] = value
+                        value, total_k = left_step(b, a, c, t, k, jump, least, p1)
                         next_least = min(next_least, value)
-                        total_k = acc(t[k] + value)
-                        t[k] = total_k
                         best = min(best, total_k if lo <= k < n else never)
                     first = np.int16(n)
                     none = np.int16(n)
