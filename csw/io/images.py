@@ -129,6 +129,8 @@ def _decode(path, gray=False):
         tiff = Tiff(path)
         try:
             return tiff.rows(0, tiff.shape[0])
+        except ImageError:
+            raise
         except Exception as exc:  # decoders raise many types for damaged data
             raise ImageError(f"{path}: not a readable TIFF ({error_reason(exc)})") from None
     try:
@@ -230,6 +232,26 @@ def npy_header(handle, path):
     return shape, dtype, offset
 
 
+def _missing_tiff_data(page, file_size):
+    """Why a TIFF page's pixel data is not all in the file, or None: a strip or tile
+    that runs past the file's end, or uncompressed strips too short for the image.
+    tifffile reads the pixels that are there and fills the rest with zeros, so a header
+    of a few bytes would allocate a whole image of them.  (Compressed data may be far
+    smaller than its pixels: the pixel limit bounds it.)"""
+    segments = [(int(o), int(c)) for o, c in zip(page.dataoffsets, page.databytecounts,
+                                                  strict=False) if c]
+    if any(offset + count > file_size for offset, count in segments):
+        return f"its pixel data runs past the file's end ({file_size} bytes)"
+    if page.compression == 1:  # none: each row's bits, padded to whole bytes
+        samples = page.samplesperpixel
+        row_bytes = -(-page.imagewidth * samples * page.bitspersample // 8)
+        needed = row_bytes * page.imagelength * page.imagedepth
+        held = sum(count for _, count in segments)
+        if held < needed:
+            return f"its pixel data holds {held} bytes of the {needed} its header declares"
+    return None
+
+
 class Tiff:
     """A TIFF or BigTIFF's first page, read through tifffile's zarr view, so that rows
     are decoded only as they are asked for.  shape: (H, W); colour: it has channels."""
@@ -243,6 +265,9 @@ class Tiff:
             with tifffile.TiffFile(self.path) as tif:
                 page = tif.pages.first
                 self._separate = page.planarconfig == tifffile.PLANARCONFIG.SEPARATE
+                # Refused when rows are asked for, after the header's size has met
+                # the pixel limit, whose message says what to do.
+                self._missing = _missing_tiff_data(page, tif.filehandle.size)
             self._store = tifffile.imread(self.path, aszarr=True, key=0)
             self._array = zarr.open(self._store, mode="r")
         except (tifffile.TiffFileError, ValueError, OSError, KeyError, IndexError) as exc:
@@ -258,6 +283,9 @@ class Tiff:
 
     def rows(self, r0, r1):
         """Rows r0..r1-1 as stored: (n, W) or (n, W, C)."""
+        if self._missing:
+            raise ImageError(f"{self.path}: the TIFF is truncated or damaged: "
+                             f"{self._missing}")
         if self._separate and len(self._array.shape) == 3:
             return np.asarray(np.moveaxis(self._array[:, r0:r1], 0, -1))
         return np.asarray(self._array[r0:r1])
