@@ -664,10 +664,10 @@ def _make(cost, cost_type, acc, negative, banded):
         shift = -dmin if negative else 0
         keyed = sc[SC.keyed] != 0
         fused = sc[SC.fused]
+        going_up = fused == 1
         for i_row in range(y1 - y0):
             if stop_requested(stop):
                 return 0
-            going_up = fused == 1
             y = y1 - 1 - i_row if going_up else y0 + i_row
             # Constants (its own compile, the path's adding step alone in it): with
             # int64s here the winners step took 7% longer.
