@@ -3,7 +3,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export PATH := $(abspath $(VENV))/bin:$(PATH)
 
-.PHONY: run test test-quick test-newest-numba coverage bench bench-batch bench-peers bench-scale bench-startup bench-stream tradeoff quality first-photo \
+.PHONY: run test test-quick test-newest-numba suite-kernels coverage bench bench-batch bench-peers bench-scale bench-startup bench-stream tradeoff quality first-photo \
 	bench-rectify bench-calibrate bench-sgm bench-logs lint \
 	format clean
 
@@ -32,6 +32,13 @@ run: $(VENV)/.installed-base
 
 test: $(VENV)/.installed-test
 	scripts/test.sh
+
+# tests/suite_kernels.txt, the kernel entries a session compiles before its first test,
+# written again from the suite on an empty cache (tests/suite_kernels.py).  Minutes.
+suite-kernels: $(VENV)/.installed-test
+	cache=$$(mktemp -d) && \
+	CSW_KERNEL_CACHE=$$cache CSW_SUITE_PRECOMPILE=0 scripts/test.sh -q; \
+	CSW_KERNEL_CACHE=$$cache $(PY) tests/suite_kernels.py && rm -rf "$$cache"
 
 # The suite less the tests marked slow (pyproject.toml's markers).
 test-quick: $(VENV)/.installed-test

@@ -2,6 +2,8 @@
 # The whole test suite. pytest's exit code 5 ("no tests collected") is a failure here.
 set -uo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/_data_env.sh"
+# The kernels the suite loads, compiled first on every core (tests/suite_kernels.py).
+export CSW_SUITE_PRECOMPILE="${CSW_SUITE_PRECOMPILE:-1}"
 set -x
 python -m pytest "$@"
 status=$?

@@ -15,6 +15,15 @@ settings.load_profile(os.environ.get("CSW_HYPOTHESIS_PROFILE",
                                      "ci" if os.environ.get("CI") else "dev"))
 
 
+def pytest_collection_finish(session):
+    """The kernel entries the suite loads, compiled before the first test on every core
+    where the cache lacks them (tests/suite_kernels.py); within the session's time."""
+    from suite_kernels import precompile
+
+    if not session.config.option.collectonly:
+        precompile()
+
+
 def pytest_collection_modifyitems(config, items):
     """Tests marked two_cores ask csw for two threads, which it refuses where the process
     may run on one core (a one-core machine, taskset): skipped there, not failed."""

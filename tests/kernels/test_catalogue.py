@@ -36,6 +36,16 @@ def test_every_entry_a_driver_loads_names_a_kernel_of_the_catalogue():
     assert named == set(catalogue.KERNELS)
 
 
+def test_every_entry_the_suite_compiles_first_is_in_the_catalogue():
+    """tests/suite_kernels.txt, the entries the session compiles before its first test:
+    a name the catalogue no longer has would be skipped there, silently slower."""
+    from suite_kernels import catalogued, listed
+
+    names = listed()
+    assert names and len(set(names)) == len(names)
+    assert not set(names) - set(catalogued()), "run make suite-kernels"
+
+
 @pytest.mark.slow  # builds 354 specs: about a second
 def test_every_catalogued_variant_gives_its_workers_spec():
     for name, kernel in catalogue.KERNELS.items():
