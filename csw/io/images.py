@@ -5,7 +5,10 @@ Conventions: colour by ITU-R 601-2 luma with Pillow's integer rounding
 their 16 bits (read with pypng: Pillow would cut them to 8).
 """
 
+import contextlib
+import logging
 import os
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -134,14 +137,16 @@ def _decode(path, gray=False):
         except Exception as exc:  # decoders raise many types for damaged data
             raise ImageError(f"{path}: not a readable TIFF ({error_reason(exc)})") from None
     try:
-        if mode == "CMYK" or (gray and mode in ("RGB", "RGBA")):
-            from PIL import Image
+        with _pillow_quiet():
+            if mode == "CMYK" or (gray and mode in ("RGB", "RGBA")):
+                from PIL import Image
 
-            with Image.open(path) as image:
-                return np.asarray(image.convert("L" if gray and mode != "CMYK" else "RGB"))
-        import imageio.v3 as iio
+                with Image.open(path) as image:
+                    return np.asarray(image.convert("L" if gray and mode != "CMYK"
+                                                    else "RGB"))
+            import imageio.v3 as iio
 
-        return iio.imread(path, plugin="pillow", index=0)
+            return iio.imread(path, plugin="pillow", index=0)
     except Exception as exc:  # decoders raise many types for damaged data
         raise ImageError(f"{path}: not a readable image ({error_reason(exc)})") from None
 
@@ -151,17 +156,29 @@ def error_reason(exc):
     return (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)[:120]
 
 
-def image_header(path):
-    """(mode, format, (H, W)) from the file's header, read by Pillow without decoding
-    the pixels; ImageError saying why when it can't be opened."""
+@contextlib.contextmanager
+def _pillow_quiet():
+    """Pillow's warnings hidden: of damage it reads past (a TIFF directory cut short,
+    corrupt EXIF data), which csw reads or refuses with its own one-line error, and of
+    a decompression bomb, since the pixel limit is csw's own (check_pixels)."""
     import warnings
 
     from PIL import Image
 
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        warnings.filterwarnings("ignore", category=UserWarning, module=r"PIL\.")
+        yield
+
+
+def image_header(path):
+    """(mode, format, (H, W)) from the file's header, read by Pillow without decoding
+    the pixels; ImageError saying why when it can't be opened."""
+    from PIL import Image
+
     safety.check_input(path, "an image file", ImageError)  # before open: a pipe blocks it
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        with _pillow_quiet():
             Image.MAX_IMAGE_PIXELS = None  # the limit is csw's own (check_pixels)
             with Image.open(path) as image:
                 return image.mode, image.format, (image.height, image.width)
@@ -252,11 +269,43 @@ def _missing_tiff_data(page, file_size):
     return None
 
 
+class _WhileCswReads(logging.Filter):
+    """Drops tifffile's log records while this thread reads a TIFF for csw (see
+    :func:`_tifffile_quiet`)."""
+
+    reading = threading.local()
+
+    def filter(self, record):
+        return not getattr(self.reading, "on", False)
+
+
+_TIFFFILE_FILTER = _WhileCswReads()
+
+
+@contextlib.contextmanager
+def _tifffile_quiet():
+    """tifffile logs what it finds wrong in a file (an offset past the end, a tag of an
+    unknown type), printed on stderr by logging's last resort where nothing is
+    configured; csw reads the file or refuses it with its own one-line error, so those
+    lines would be a second message.  Only this thread's reads are quietened."""
+    logging.getLogger("tifffile").addFilter(_TIFFFILE_FILTER)  # once: a set of filters
+    before = getattr(_WhileCswReads.reading, "on", False)
+    _WhileCswReads.reading.on = True
+    try:
+        yield
+    finally:
+        _WhileCswReads.reading.on = before
+
+
 class Tiff:
     """A TIFF or BigTIFF's first page, read through tifffile's zarr view, so that rows
     are decoded only as they are asked for.  shape: (H, W); colour: it has channels."""
 
     def __init__(self, path):
+        with _tifffile_quiet():
+            self._open(path)
+
+    def _open(self, path):
         import tifffile
         import zarr
 
@@ -270,7 +319,10 @@ class Tiff:
                 self._missing = _missing_tiff_data(page, tif.filehandle.size)
             self._store = tifffile.imread(self.path, aszarr=True, key=0)
             self._array = zarr.open(self._store, mode="r")
-        except (tifffile.TiffFileError, ValueError, OSError, KeyError, IndexError) as exc:
+        except (KeyError, IndexError):  # tifffile found no page where the header points
+            raise ImageError(f"{self.path}: not a readable TIFF (no image where its header "
+                             "points)") from None
+        except (tifffile.TiffFileError, ValueError, OSError) as exc:
             raise ImageError(f"{self.path}: not a readable TIFF ({error_reason(exc)})") \
                 from None
         shape = self._array.shape
@@ -286,6 +338,7 @@ class Tiff:
         if self._missing:
             raise ImageError(f"{self.path}: the TIFF is truncated or damaged: "
                              f"{self._missing}")
-        if self._separate and len(self._array.shape) == 3:
-            return np.asarray(np.moveaxis(self._array[:, r0:r1], 0, -1))
-        return np.asarray(self._array[r0:r1])
+        with _tifffile_quiet():
+            if self._separate and len(self._array.shape) == 3:
+                return np.asarray(np.moveaxis(self._array[:, r0:r1], 0, -1))
+            return np.asarray(self._array[r0:r1])

@@ -84,6 +84,42 @@ def test_a_tiff_that_is_not_one(tmp_path, pair):
     assert "Traceback" not in result.output and files_in(tmp_path / "out") == []
 
 
+def damaged_tiffs(image):
+    """TIFFs that tifffile logs its own complaints about, or Pillow warns of, as they
+    read them: the first page's offset past the file's end; the first tag of a type that
+    does not exist; the file cut after the first directory's tags."""
+    import io
+    import struct
+
+    buffer = io.BytesIO()
+    tifffile.imwrite(buffer, image)
+    good = buffer.getvalue()
+    (first,) = struct.unpack("<I", good[4:8])
+    (tags,) = struct.unpack("<H", good[first:first + 2])
+    return {"page past the end": good[:4] + b"\xff\xff\x00\x00" + good[8:],
+            "tag of no type": good[:10] + b"\x00\x00\x00\x7f" + good[14:],
+            "directory cut short": good[:first + 2 + 12 * tags]}
+
+
+@pytest.mark.parametrize("damage", ["page past the end", "tag of no type",
+                                    "directory cut short"])
+def test_a_damaged_tiff_gets_one_line_in_a_real_process(tmp_path, pair, damage):
+    """In a process of its own, where nothing configures logging: tifffile's records
+    would reach stderr through logging's last resort beside csw's error (CliRunner
+    runs under pytest's log capture, which hides them)."""
+    import subprocess
+    import sys
+
+    (tmp_path / "l.tif").write_bytes(damaged_tiffs(render(64, 48, dmax=8)[0])[damage])
+    (tmp_path / "out").mkdir()
+    done = subprocess.run([sys.executable, "-m", "csw_cli", "match", tmp_path / "l.tif",
+                           pair[1], "-o", tmp_path / "out" / "d.pfm", "--dmax", str(DMAX)],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and "l.tif" in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert files_in(tmp_path / "out") == []
+
+
 @pytest.mark.slow
 def test_the_stripes_of_one_pair_on_a_local_cluster(tmp_path, pair):
     pytest.importorskip("dask.distributed")
