@@ -137,7 +137,7 @@ def _decode(path, gray=False):
         except Exception as exc:  # decoders raise many types for damaged data
             raise ImageError(f"{path}: not a readable TIFF ({error_reason(exc)})") from None
     try:
-        with _pillow_quiet():
+        with quiet_decoders():
             if mode == "CMYK" or (gray and mode in ("RGB", "RGBA")):
                 from PIL import Image
 
@@ -156,21 +156,6 @@ def error_reason(exc):
     return (str(exc).splitlines()[0] if str(exc) else type(exc).__name__)[:120]
 
 
-@contextlib.contextmanager
-def _pillow_quiet():
-    """Pillow's warnings hidden: of damage it reads past (a TIFF directory cut short,
-    corrupt EXIF data), which csw reads or refuses with its own one-line error, and of
-    a decompression bomb, since the pixel limit is csw's own (check_pixels)."""
-    import warnings
-
-    from PIL import Image
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-        warnings.filterwarnings("ignore", category=UserWarning, module=r"PIL\.")
-        yield
-
-
 def image_header(path):
     """(mode, format, (H, W)) from the file's header, read by Pillow without decoding
     the pixels; ImageError saying why when it can't be opened."""
@@ -178,10 +163,8 @@ def image_header(path):
 
     safety.check_input(path, "an image file", ImageError)  # before open: a pipe blocks it
     try:
-        with _pillow_quiet():
-            Image.MAX_IMAGE_PIXELS = None  # the limit is csw's own (check_pixels)
-            with Image.open(path) as image:
-                return image.mode, image.format, (image.height, image.width)
+        with quiet_decoders(), Image.open(path) as image:
+            return image.mode, image.format, (image.height, image.width)
     except FileNotFoundError:
         raise ImageError(f"{path}: no such file") from None
     except IsADirectoryError:
@@ -270,29 +253,47 @@ def _missing_tiff_data(page, file_size):
 
 
 class _WhileCswReads(logging.Filter):
-    """Drops tifffile's log records while this thread reads a TIFF for csw (see
-    :func:`_tifffile_quiet`)."""
+    """Drops tifffile's and Pillow's log records (their modules' loggers too) while this
+    thread reads a file for csw (see :func:`quiet_decoders`)."""
 
     reading = threading.local()
 
     def filter(self, record):
-        return not getattr(self.reading, "on", False)
+        return not (getattr(self.reading, "on", False) and
+                    record.name.split(".")[0] in ("tifffile", "PIL"))
 
 
-_TIFFFILE_FILTER = _WhileCswReads()
+_DECODER_FILTER = _WhileCswReads()
 
 
 @contextlib.contextmanager
-def _tifffile_quiet():
-    """tifffile logs what it finds wrong in a file (an offset past the end, a tag of an
-    unknown type), printed on stderr by logging's last resort where nothing is
-    configured; csw reads the file or refuses it with its own one-line error, so those
-    lines would be a second message.  Only this thread's reads are quietened."""
-    logging.getLogger("tifffile").addFilter(_TIFFFILE_FILTER)  # once: a set of filters
+def quiet_decoders(pillow_warnings=True):
+    """tifffile and Pillow hidden while this thread reads a file with them.  They log
+    what they find wrong in it (an offset past the end, a tag of an unknown type, more
+    samples than they decode), which logging's last resort prints on stderr where
+    nothing is configured (a filter there drops them; a program that configured logging
+    still gets them), and Pillow warns of damage it reads past (a directory cut short,
+    corrupt EXIF data) and of a decompression bomb.  csw reads the file or refuses it
+    with its own one-line error (the pixel limit is its own: check_pixels), so those
+    lines would be a second message.  Other threads' records still go out (a
+    notebook's own tifffile calls log).  pillow_warnings=False leaves the warnings
+    filters alone (a TIFF's rows, read by tifffile in stripes' threads: changing the
+    process's filters is not safe there)."""
+    import warnings
+
+    from PIL import Image
+
+    Image.MAX_IMAGE_PIXELS = None  # the limit is csw's own (check_pixels)
+    if logging.lastResort is not None:  # where a program configured logging, it shows
+        logging.lastResort.addFilter(_DECODER_FILTER)  # once: a set of filters
     before = getattr(_WhileCswReads.reading, "on", False)
     _WhileCswReads.reading.on = True
     try:
-        yield
+        with warnings.catch_warnings() if pillow_warnings else contextlib.nullcontext():
+            if pillow_warnings:
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+                warnings.filterwarnings("ignore", category=UserWarning, module=r"PIL\.")
+            yield
     finally:
         _WhileCswReads.reading.on = before
 
@@ -302,7 +303,7 @@ class Tiff:
     are decoded only as they are asked for.  shape: (H, W); colour: it has channels."""
 
     def __init__(self, path):
-        with _tifffile_quiet():
+        with quiet_decoders(pillow_warnings=False):
             self._open(path)
 
     def _open(self, path):
@@ -322,7 +323,8 @@ class Tiff:
         except (KeyError, IndexError):  # tifffile found no page where the header points
             raise ImageError(f"{self.path}: not a readable TIFF (no image where its header "
                              "points)") from None
-        except (tifffile.TiffFileError, ValueError, OSError) as exc:
+        except Exception as exc:  # a damaged header raises many types (struct.error,
+            # TypeError from a tag of the wrong count ...)
             raise ImageError(f"{self.path}: not a readable TIFF ({error_reason(exc)})") \
                 from None
         shape = self._array.shape
@@ -338,7 +340,7 @@ class Tiff:
         if self._missing:
             raise ImageError(f"{self.path}: the TIFF is truncated or damaged: "
                              f"{self._missing}")
-        with _tifffile_quiet():
+        with quiet_decoders(pillow_warnings=False):
             if self._separate and len(self._array.shape) == 3:
                 return np.asarray(np.moveaxis(self._array[:, r0:r1], 0, -1))
             return np.asarray(self._array[r0:r1])

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import safety
-from ..io.images import ImageError, luma, read_colour, read_image
+from ..io.images import ImageError, check_pixels, luma, quiet_decoders, read_colour, read_image
 
 LOG_SUFFIXES = (".bag", ".mcap", ".db3")
 IMAGE = "sensor_msgs/msg/Image"
@@ -530,7 +530,8 @@ def _decode_compressed(msg, fmt, colour, where):
             "compresseddepth" in fmt.lower():
         raise LogError(f"{where}compressed format {fmt!r} is not one csw reads (JPEG, PNG)")
     try:
-        with Image.open(io.BytesIO(bytes(msg.data))) as image:
+        with quiet_decoders(), Image.open(io.BytesIO(bytes(msg.data))) as image:
+            check_pixels((image.height, image.width), f"{where}the compressed frame")
             image.load()
             if image.mode in ("I;16", "I;16B", "I"):
                 gray = np.asarray(image).astype(np.uint16)
@@ -538,9 +539,13 @@ def _decode_compressed(msg, fmt, colour, where):
             else:
                 rgb = np.asarray(image.convert("RGB"))
                 gray = luma(rgb)
-    except (UnidentifiedImageError, Image.DecompressionBombError, OSError,
-            SyntaxError) as exc:
+    except UnidentifiedImageError:  # its text names a BytesIO object
+        raise LogError(f"{where}the compressed frame can't be decoded (its bytes are no "
+                       f"{fmt} image)") from None
+    except (Image.DecompressionBombError, OSError, SyntaxError) as exc:
         raise LogError(f"{where}the compressed frame can't be decoded ({exc})") from None
+    except ImageError as exc:  # over the pixel limit: a log's error, one frame's
+        raise LogError(str(exc)) from None
     if colour and rgb is None:
         rgb = np.repeat(gray[..., None], 3, axis=2)
     return gray, (rgb if colour else None)

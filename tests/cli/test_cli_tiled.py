@@ -85,9 +85,11 @@ def test_a_tiff_that_is_not_one(tmp_path, pair):
 
 
 def damaged_tiffs(image):
-    """TIFFs that tifffile logs its own complaints about, or Pillow warns of, as they
-    read them: the first page's offset past the file's end; the first tag of a type that
-    does not exist; the file cut after the first directory's tags."""
+    """TIFFs that tifffile or Pillow log or warn of as they read them, or raise other
+    errors than their own for: the first page's offset past the file's end; the first
+    tag of a type that does not exist, or of a count that does not fit it; the 8th
+    tag's count (samples per pixel); the file cut after the first directory's tags, or
+    inside its header."""
     import io
     import struct
 
@@ -98,11 +100,15 @@ def damaged_tiffs(image):
     (tags,) = struct.unpack("<H", good[first:first + 2])
     return {"page past the end": good[:4] + b"\xff\xff\x00\x00" + good[8:],
             "tag of no type": good[:10] + b"\x00\x00\x00\x7f" + good[14:],
-            "directory cut short": good[:first + 2 + 12 * tags]}
+            "directory cut short": good[:first + 2 + 12 * tags],
+            "header cut short": good[:5],
+            "tag of a wrong count": good[:14] + bytes([good[14] ^ 255]) + good[15:],
+            "samples per pixel": good[:98] + bytes([good[98] ^ 255]) + good[99:]}
 
 
 @pytest.mark.parametrize("damage", ["page past the end", "tag of no type",
-                                    "directory cut short"])
+                                    "directory cut short", "header cut short",
+                                    "tag of a wrong count", "samples per pixel"])
 def test_a_damaged_tiff_gets_one_line_in_a_real_process(tmp_path, pair, damage):
     """In a process of its own, where nothing configures logging: tifffile's records
     would reach stderr through logging's last resort beside csw's error (CliRunner

@@ -275,6 +275,28 @@ def test_compressed_frames_decode_and_an_unknown_encoding_is_one_line(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_compressed_frame_meets_the_pixel_limit_and_damage_says_what(tmp_path,
+                                                                       monkeypatch):
+    import io
+
+    from PIL import Image
+
+    gray = np.zeros((24, 32), np.uint8)
+    buffer = io.BytesIO()
+    Image.fromarray(gray).save(buffer, format="PNG")
+    writer = BagWriter(tmp_path / "unused.mcap")
+    msg = writer.message("sensor_msgs/msg/CompressedImage",
+                         header=writer.header(STAMP0, "cam"), format="png",
+                         data=np.frombuffer(buffer.getvalue(), np.uint8))
+    monkeypatch.setenv("CSW_MAX_PIXELS", str(24 * 32 - 1))  # csw's limit, not Pillow's
+    with pytest.raises(LogError, match="32x24, 768 pixels, more than the safety limit"):
+        decode(msg)
+    monkeypatch.delenv("CSW_MAX_PIXELS")
+    with pytest.raises(LogError, match=r"can't be decoded \(its bytes are no png image\)$"):
+        decode(replace_field(msg, data=np.frombuffer(b"not a png at all", np.uint8)))
+    writer.discard()
+
+
 def replace_field(msg, **fields):
     from dataclasses import replace
 
