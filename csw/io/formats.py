@@ -92,9 +92,12 @@ def read_pfm(path):
             kind = f.readline(16).strip()
             if kind not in (b"Pf", b"PF"):
                 raise ImageError(f"{path}: not a PFM file")
-            dims = f.readline(64).split()
-            while not dims:  # tolerate blank lines
-                dims = f.readline(64).split()
+            line = f.readline(64)
+            while line and not line.split():  # tolerate blank lines, not the file's end
+                line = f.readline(64)
+            dims = line.split()
+            if not dims:
+                raise ImageError(f"{path}: the PFM header ends before its size")
             width, height = int(dims[0]), int(dims[1])
             scale = float(f.readline(64).strip())
             channels = 3 if kind == b"PF" else 1
@@ -110,6 +113,8 @@ def read_pfm(path):
                                  f"{expected} bytes of data; the file has {available}")
             dtype = "<f4" if scale < 0 else ">f4"
             data = np.fromfile(f, dtype=dtype, count=width * height * channels)
+    except ImageError:
+        raise
     except (OSError, ValueError, IndexError) as exc:
         raise ImageError(f"{path}: not a readable PFM ({exc})") from None
     if data.size != width * height * channels:

@@ -143,6 +143,43 @@ def test_hostile_pfm_headers(tmp_path, header, message):
     assert time.perf_counter() - start < 5
 
 
+@pytest.mark.parametrize("content, message", [
+    (b"Pf\n", "the PFM header ends before its size"),
+    (b"Pf\n\n\n", "the PFM header ends before its size"),  # read forever once
+    (b"Px\n4 4\n-1\n", "d.pfm: not a PFM file"),
+])
+def test_a_pfm_that_ends_in_its_header_is_refused_at_once(tmp_path, content, message):
+    import subprocess
+    import sys
+
+    (tmp_path / "d.pfm").write_bytes(content)
+    write_float_pfm(tmp_path / "gt.pfm", np.ones((4, 4), np.float32))
+    done = subprocess.run([sys.executable, "-m", "csw_cli", "score", str(tmp_path / "gt.pfm"),
+                           "--gt", str(tmp_path / "d.pfm")],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and done.stderr.strip().endswith(message)
+    assert len(done.stderr.strip().splitlines()) == 1 and done.stderr.count("d.pfm") == 1
+
+
+@pytest.mark.parametrize("option", ["--calib", "--rig"])
+def test_a_calibration_of_a_million_blank_lines_is_refused_at_once(tmp_path, option):
+    """Under the 1 MiB limit: a pattern that let a line's start run over the blank lines
+    after it took minutes (its time grew with the square of their count)."""
+    import subprocess
+    import sys
+
+    write_float_pfm(tmp_path / "d.pfm", np.ones((4, 4), np.float32))
+    (tmp_path / "calib.txt").write_text("\n" * (1 << 19))
+    args = ["depth", str(tmp_path / "d.pfm"), "-o", str(tmp_path / "z.pfm")] \
+        if option == "--calib" else ["rectify", str(tmp_path / "d.pfm"),
+                                     str(tmp_path / "d.pfm"), "-O", str(tmp_path / "out")]
+    done = subprocess.run([sys.executable, "-m", "csw_cli", *args, option,
+                           str(tmp_path / "calib.txt")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
+    assert "calib.txt" in done.stderr and not (tmp_path / "z.pfm").exists()
+
+
 def test_an_image_over_the_pixel_limit_says_so(tmp_path, pair_files):
     (tmp_path / "big.png").write_bytes(png_bytes(60000, 60000))
     result = invoke("match", tmp_path / "big.png", pair_files[1], "-o", tmp_path / "d.pfm")
