@@ -694,10 +694,17 @@ def _kitti_stamp(line, path, index):
     found = _KITTI_STAMP.match(line)
     if not found:
         raise LogError(f"{path}: line {index + 1} is not a stamp ({line.strip()[:40]!r})")
-    day = datetime.strptime(found.group(1), "%Y-%m-%d").replace(tzinfo=UTC)
-    seconds = int(day.timestamp()) + 3600 * int(found.group(2)) + \
-        60 * int(found.group(3)) + int(found.group(4))
-    return seconds * 10**9 + int((found.group(5) or "0").ljust(9, "0"))
+    try:
+        day = datetime.strptime(found.group(1), "%Y-%m-%d").replace(tzinfo=UTC)
+        seconds = int(day.timestamp()) + 3600 * int(found.group(2)) + \
+            60 * int(found.group(3)) + int(found.group(4))
+    except (ValueError, OverflowError) as exc:  # a month 99, a year 0
+        raise LogError(f"{path}: line {index + 1} is not a stamp ({exc})") from None
+    stamp = seconds * 10**9 + int((found.group(5) or "0").ljust(9, "0"))
+    if not 0 <= stamp < 2**63:  # stamps are int64 nanoseconds since 1970, as ROS's
+        raise LogError(f"{path}: line {index + 1}'s stamp {found.group(1)} is outside "
+                       "1970-2262, which csw's nanosecond stamps hold")
+    return stamp
 
 
 def describe_log(path):

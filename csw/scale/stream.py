@@ -637,16 +637,20 @@ class _FrameRun:
             self.behind.close(raising=False)
         self.seconds = time.perf_counter() - self.start
         self.bar.close()
+        wrote_preview = False
         if self.preview is not None:
             try:
                 self.preview.close()  # what was matched, a whole video, interrupted or not
+                wrote_preview = True
             except (OSError, VideoError) as exc:  # a full disk: the summary still says
                 reason = f"the preview video {self.preview_path} could not be written " \
                          f"({getattr(exc, 'strerror', None) or exc})"
                 self.stopped = f"{self.stopped}; {reason}" if self.stopped else reason
+        wrote_bag = False
         if self.publish is not None:
             try:
                 self.publish.close()  # as the preview: what was matched, interrupted or not
+                wrote_bag = True
             except (OSError, LogError) as exc:
                 reason = f"the bag could not be written ({getattr(exc, 'strerror', None) or exc})"
                 self.stopped = f"{self.stopped}; {reason}" if self.stopped else reason
@@ -661,6 +665,10 @@ class _FrameRun:
                            "p99": round(float(np.percentile(latency, 99)), 2)}
             if latency.size else None,
             "size": self.size, "range": self.range, "stream_notes": list(notes),
+            # None where no frame was matched (the video starts at the first) or its
+            # writing failed
+            "preview_video": str(self.preview_path) if wrote_preview else None,
+            "bag_written": wrote_bag,
             "stopped": self.stopped, **self.extra(),
         }
         try:

@@ -52,7 +52,7 @@ def video_mode(ctx, left, right, sbs, output_dir, suffix, overwrite, summary,
                          frame_outputs=frame_outputs(ctx.params))
     except OSError as exc:
         raise opt.write_error(exc) from None
-    report_stream(report, output_dir, summary, preview_video, range_each_frame)
+    report_stream(report, output_dir, summary, range_each_frame)
     if latest:
         click.echo(f"csw: {report['dropped']} frame(s) dropped to keep up (--latest)",
                    err=True)
@@ -76,7 +76,7 @@ def stream_config(settings, preview_video, preview_sbs, range_each_frame):
     return config
 
 
-def report_stream(report, output_dir, summary, preview_video, range_each_frame):
+def report_stream(report, output_dir, summary, range_each_frame):
     """The lines on stderr after a video's or a log's run."""
     counts = report["counts"]
     latency = report["latency_ms"] or {"median": 0.0, "p99": 0.0}
@@ -89,8 +89,8 @@ def report_stream(report, output_dir, summary, preview_video, range_each_frame):
                f"matched, {counts['skipped']} skipped, {counts['failed']} failed; "
                f"{report['frames_per_second']:.1f} frames/s, latency median "
                f"{latency['median']:.1f} ms, p99 {latency['p99']:.1f} ms{where}", err=True)
-    if preview_video and report["frames"]:
-        click.echo(f"wrote {preview_video}", err=True)
+    if report["preview_video"]:
+        click.echo(f"wrote {report['preview_video']}", err=True)
     for note in report["stream_notes"]:
         click.echo(f"csw: {note}", err=True)
     for entry in report["failed"][:20]:
@@ -156,8 +156,8 @@ def log_mode(ctx, log_path, right, output_dir, suffix, overwrite, summary, rigs,
     click.echo(f"{info['left_topic']} and {info['right_topic']}: {info['pairs']} pairs "
                f"({unpaired['left']} left and {unpaired['right']} right frames unpaired"
                f"{rectified})", err=True)
-    report_stream(report, output_dir, summary, preview_video, range_each_frame)
-    if p["bag_out"] and report["frames"]:
+    report_stream(report, output_dir, summary, range_each_frame)
+    if report["bag_written"]:
         click.echo(f"wrote {p['bag_out']}", err=True)
     if report["counts"]["failed"] or report["stopped"]:
         raise SystemExit(1)

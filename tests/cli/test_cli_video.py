@@ -112,6 +112,20 @@ def test_a_damaged_frame_fails_alone_and_exits_1(tmp_path):
     assert (tmp_path / "maps" / "000005.pfm").exists()
 
 
+def test_no_frame_matched_writes_no_preview_and_says_none(tmp_path):
+    video = sbs_mjpeg(tmp_path / "v.avi", 3)
+    damage_jpeg_frame(video, 0)
+    damage_jpeg_frame(video, 0)  # frame 1, now the first with a start-of-image marker
+    data = bytearray(video.read_bytes())  # the last frame: up to its end-of-image marker
+    last, end = data.rfind(b"\xff\xd8"), data.rfind(b"\xff\xd9")
+    data[last:end] = bytes(end - last)
+    video.write_bytes(bytes(data))
+    result = invoke("match", video, "--sbs", "--preview-video", tmp_path / "p.mp4",
+                    "--dmax", 15)
+    assert result.exit_code == 1 and "0 matched, 0 skipped, 3 failed" in result.output
+    assert "wrote" not in result.output and not (tmp_path / "p.mp4").exists()
+
+
 @pytest.mark.slow
 def test_ctrl_c_keeps_the_frames_written_and_marks_the_summary(tmp_path):
     sbs_mjpeg(tmp_path / "v.avi", 3000, width=320, height=240, dmax=31)

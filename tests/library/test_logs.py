@@ -2,6 +2,7 @@
 built on the fly from synthetic scenes pushed through a known distorted rig."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -437,6 +438,21 @@ def test_a_kitti_sync_drive_is_rectified_already(tmp_path, scene):
     assert log.rectified and log.rectifier is None
     assert log.calibration.focal == pytest.approx(rect[2][0, 0])
     np.testing.assert_array_equal(next(iter(log))[0], pairs[0][0])
+
+
+@pytest.mark.parametrize("second, message", [
+    ("9999-12-31 23:59:59.999999999", "line 2's stamp 9999-12-31 is outside 1970-2262"),
+    ("2011-99-99 13:02:25.1", "line 2 is not a stamp (time data '2011-99-99'"),
+    ("0000-09-26 13:02:25.1", "line 2 is not a stamp (year 0 is out of range"),
+])
+def test_a_kitti_stamp_that_is_no_time_names_its_file_and_line(tmp_path, scene, second,
+                                                               message):
+    rig, rect, pairs = scene
+    drive = kitti_drive(tmp_path, rig, rect, pairs[:2],
+                        stamps=["2011-09-26 13:02:25.0", second])
+    with pytest.raises(LogError, match=re.escape(message)) as info:
+        list(read_log(drive))
+    assert "timestamps.txt" in str(info.value)
 
 
 def test_camera_info_fields_are_read_from_ros1_and_ros2_alike(tmp_path, scene):
