@@ -23,6 +23,7 @@ from .rig import UNITS
 
 MAX_FILE_BYTES = safety.SMALL_FILE_BYTES  # a calibration is a few lines
 
+FLOAT32_TINY = float(np.finfo(np.float32).tiny)
 FLOAT32_MAX = 3.4e38
 
 
@@ -68,11 +69,15 @@ class Calibration:
             which = "focal length" if self.focal == 0 else "baseline"
             raise ValueError(f"{self.source}: the {which} is 0, so no depth follows from "
                              "it; check the calibration")
-        # Depths are float32: beyond its range every depth would be inf.
-        if not abs(self.focal * self.baseline) < FLOAT32_MAX:
+        # Depths are float32: beyond its range every depth would be inf, below its
+        # smallest normal number 0 (and Q's 1 / baseline overflows first).
+        size = abs(self.focal * self.baseline)
+        if not FLOAT32_TINY <= min(size, abs(self.focal), abs(self.baseline)) or \
+                not size < FLOAT32_MAX:
+            extreme = "large" if size >= FLOAT32_MAX else "small"
             raise ValueError(f"{self.source}: focal length x baseline ({self.focal:g} x "
-                             f"{self.baseline:g}) is too large to give a depth; check the "
-                             "calibration")
+                             f"{self.baseline:g}) is too {extreme} to give a depth; check "
+                             "the calibration")
         if self.units is not None and self.units not in UNITS:
             raise ValueError(f"{self.source}: unknown units {self.units!r}; use "
                              f"{', '.join(UNITS)}")

@@ -46,6 +46,15 @@ class Rectifier:
         self.rig, self.alpha, self.threads = rig, alpha, threads
         fisheye = rig.model == "equidistant"
         r1, r2, p1, p2 = rectification(rig, alpha)
+        for which, r, p in (("left", r1, p1), ("right", r2, p2)):
+            # The maps invert P x R: a file's matrices may be anything (zeros, 1e300).
+            with np.errstate(all="ignore"):
+                product = np.asarray(p, np.float64)[:3, :3] @ np.asarray(r, np.float64)
+            finite = np.isfinite(product).all()
+            if not finite or np.linalg.matrix_rank(product) < 3:
+                raise ValueError(f"{rig.source}: the {which} camera's rectification (P x R) "
+                                 f"is {'singular' if finite else 'not finite'}; check the "
+                                 "rig's R1/R2 and P1/P2")
         self.r1, self.r2, self.p1, self.p2 = r1, r2, p1, p2
         from ..kernels.remap import fixed_maps
 

@@ -3,6 +3,9 @@ folder with its calibration (``rectify_files``), and many pairs with one
 :class:`csw.camera.rectify.Rectifier` (``rectify_many``), each written whole or not at
 all."""
 
+import contextlib
+import os
+
 from .rectify import Rectifier
 
 
@@ -61,21 +64,28 @@ def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
     from ..io.images import ImageError, read_colour
     from ..io.safety import check_outputs
 
+    made = not os.path.lexists(out_dir)
     out_dir = _folder(out_dir)
     outputs = {"left": out_dir / "left.png", "right": out_dir / "right.png",
                "calib": out_dir / "calib.txt"}
-    check_outputs({"left_raw": left, "right_raw": right, **_rig_files(rig)}, outputs,
-                  {"left": (".png",), "right": (".png",), "calib": (".txt",)})
-    check_images(rig, left, right)
-    rect = Rectifier(rig, alpha, threads)
-    images = []
-    for path, name in ((left, "left"), (right, "right")):
-        try:
-            images.append(read_colour(path))
-        except ImageError as exc:
-            exc.option = name
-            raise
-    left_r, right_r = rect.rectify(*images)
+    try:
+        check_outputs({"left_raw": left, "right_raw": right, **_rig_files(rig)}, outputs,
+                      {"left": (".png",), "right": (".png",), "calib": (".txt",)})
+        check_images(rig, left, right)
+        rect = Rectifier(rig, alpha, threads)
+        images = []
+        for path, name in ((left, "left"), (right, "right")):
+            try:
+                images.append(read_colour(path))
+            except ImageError as exc:
+                exc.option = name
+                raise
+        left_r, right_r = rect.rectify(*images)
+    except BaseException:
+        if made:  # the folder this run made, still empty: nothing the user asked for
+            with contextlib.suppress(OSError):
+                out_dir.rmdir()
+        raise
     text = rect.calib_text().encode()
 
     def write_text(tmp):

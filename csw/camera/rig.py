@@ -202,7 +202,7 @@ def _opencv_size(text, source, size):
         found = [re.search(rf"^[ \t]*{k}\s*:\s*(\d+)", text, re.MULTILINE) or
                  re.search(rf"<{k}>\s*(\d+)\s*</{k}>", text) for k in keys]
         if all(found):
-            return tuple(int(f.group(1)) for f in found)
+            return _whole_size([f.group(1) for f in found], source)
     pair = _opencv_matrix(text, "(?:image_size|imageSize)", source, required=False)
     if pair is None:
         pair = re.search(r"^[ \t]*(?:image_size|imageSize)\s*:\s*\[\s*(\d+)\s*,\s*(\d+)",
@@ -217,16 +217,16 @@ def _opencv_size(text, source, size):
 
 
 def _whole_size(values, source):
-    """(width, height) from two whole numbers > 0 as a file gives them (a YAML value may
-    be anything: a string, a list, .inf); ValueError otherwise."""
+    """(width, height) from two whole numbers in 1..2**31 - 1 as a file gives them (a
+    YAML value may be anything: a string, a list, .inf, 10**24); ValueError otherwise."""
     try:
         numbers = [float(v) for v in values]
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         numbers = []
-    if len(numbers) != 2 or not all(math.isfinite(n) and n >= 1 and abs(n - round(n)) < 1e-6
+    if len(numbers) != 2 or not all(1 <= n < 2**31 and abs(n - round(n)) < 1e-6
                                     for n in numbers):
-        raise ValueError(f"{source}: the image size must be two whole numbers > 0, got "
-                         f"{str(values)[:40]}")
+        raise ValueError(f"{source}: the image size must be two whole numbers in 1.."
+                         f"{2**31 - 1}, got {str(values)[:40]}")
     return tuple(round(n) for n in numbers)
 
 

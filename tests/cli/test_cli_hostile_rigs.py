@@ -156,6 +156,19 @@ def test_a_size_that_is_no_whole_number_is_one_line(rig_folder, fmt, change):
     assert_refused(match_with(rig_folder, *paths), "whole numbers")
 
 
+@pytest.mark.parametrize("width", ["999999999999999999999999", "4294967296"])
+def test_an_opencv_rig_s_width_past_any_image_is_one_line(rig_folder, width):
+    """Its size was taken as it came: a width of 10**24 overflowed the rectification's
+    arithmetic into numpy's RuntimeWarnings on stderr, then an error of focal inf."""
+    path = rig_folder / "stereo.yml"
+    path.write_text(path.read_text().replace("width: 64", f"width: {width}"))
+    csw.write_disparity(rig_folder / "d.pfm", np.full((48, 64), 4, np.float32))
+    assert_refused(run("depth", rig_folder / "d.pfm", "--calib", path, "-o",
+                       rig_folder / "z.pfm"), "whole numbers in 1..2147483647")
+    assert_refused(match_with(rig_folder, path), "whole numbers in 1..2147483647")
+    assert not (rig_folder / "z.pfm").exists()
+
+
 @pytest.mark.parametrize("size", [(100_000, 100_000), (8000, 6000)])
 def test_a_rig_s_declared_size_is_checked_before_its_maps_are_built(rig_folder, size):
     for name in ("left.yaml", "right.yaml"):
@@ -253,3 +266,20 @@ def test_rectification_given_as_plain_lists_is_used_as_given(rig_folder):
     given = read_rig(path).rectification
     for read, made in zip(given, (r1, r2, p1, p2), strict=True):
         np.testing.assert_array_equal(read, made)
+
+
+@pytest.mark.parametrize("scale, says", [(0.0, "is singular"), (1e300, "is not finite")])
+def test_a_given_rectification_that_cannot_be_inverted_is_one_line(rig_folder, scale, says):
+    """The maps invert P x R: zeros gave numpy's "Singular matrix" without the file's
+    name, 1e300 an overflow's RuntimeWarning on stderr before the error."""
+    rig = read_rig(rig_folder / "stereo.yml")
+    r1, r2, p1, p2, _ = stereo_rectify(rig.k1, rig.d1, rig.k2, rig.d2, SIZE, rig.r, rig.t)
+    path = rig_folder / "stereo.yml"
+    path.write_text(path.read_text() + "".join(
+        f"{n}: [{', '.join(f'{v * scale:.17g}' for v in np.ravel(m))}]\n"
+        for n, m in (("R1", r1), ("R2", r2), ("P1", p1), ("P2", p2))))
+    assert_refused(match_with(rig_folder, path), "stereo.yml", "left camera's", says)
+    result = run("rectify", rig_folder / "l.png", rig_folder / "r.png", "--rig", path,
+                 "-O", rig_folder / "rect")
+    assert_refused(result, says)
+    assert not (rig_folder / "rect").exists()

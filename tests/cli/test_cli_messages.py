@@ -56,11 +56,15 @@ def test_swapped_ros_files_say_which_comes_first(ros_files):
         read_rig(right, left)
 
 
-def test_depth_from_values_too_large_is_refused(tmp_path):
+@pytest.mark.parametrize("value, says", [("1e308", "too large"), ("1e-320", "too small"),
+                                         ("1e-30", "too small")])
+def test_depth_from_values_too_large_or_too_small_is_refused(tmp_path, value, says):
+    """A product of 1e-60 is 0 in float32 depths; 1e-320's reciprocal (Q's 1 / baseline)
+    overflowed, with numpy's RuntimeWarnings on stderr, into a map of zeros."""
     csw.write_disparity(tmp_path / "d.pfm", np.full((8, 8), 4, np.float32))
-    result = run("depth", tmp_path / "d.pfm", "--focal", "1e308", "--baseline", "1e308",
+    result = run("depth", tmp_path / "d.pfm", "--focal", value, "--baseline", value,
                  "-o", tmp_path / "z.pfm")
-    assert "too large to give a depth" in one_line(result)
+    assert f"{says} to give a depth" in one_line(result)
     assert not (tmp_path / "z.pfm").exists()
 
 
