@@ -71,11 +71,11 @@ class VideoReader:
 
     path: the file.  colour: also give each frame in colour, RGBA uint8 (H, W, 4) (the
     alpha 255: the form a video writer takes without a copy).
-    frames: the frame count the file's header gives (0 when it gives none); size: (W,
-    H) of its frames.  Iterating yields (index, gray uint8 (H, W), rgb or None) per
-    frame, in order; a packet that can't be decoded yields (index, VideoError, None) in
-    its frame's place and the reading goes on (the index counts the frames read and
-    the ones lost).
+    frames: the frame count the file's header gives (0 when it gives none); read: the
+    frames iterated so far, lost ones included; size: (W, H) of its frames.  Iterating
+    yields (index, gray uint8 (H, W), rgb or None) per frame, in order; a packet that
+    can't be decoded yields (index, VideoError, None) in its frame's place and the
+    reading goes on (the index counts the frames read and the ones lost).
     """
 
     def __init__(self, path, colour=False):
@@ -119,12 +119,14 @@ class VideoReader:
         context = self._stream.codec_context
         self.size = (int(context.width), int(context.height))
         self.frames = int(self._stream.frames or 0)
+        self.read = 0  # frames yielded so far (see __iter__)
         rate = self._stream.average_rate or self._stream.guessed_rate
         self.rate = float(rate) if rate else 0.0
 
     def __iter__(self):
         av = _av()
         index = end = 0
+        self.read = 0  # frames yielded, lost ones too
         try:
             for packet in self._container.demux(self._stream):
                 if packet.pos is not None and packet.size:
@@ -136,11 +138,11 @@ class VideoReader:
                     # next one (and conceals what it can in the frames after it).
                     yield index, VideoError(f"{self.path}: frame {index} can't be decoded "
                                             f"({_reason(exc)})"), None
-                    index += 1
+                    index = self.read = index + 1
                     continue
                 for frame in decoded:
                     yield (index, *self._arrays(frame))
-                    index += 1
+                    index = self.read = index + 1
             if index == 0:  # the run stops, saying so (a header's count can be a guess:
                 # only an empty file is sure to be wrong)
                 raise VideoError(f"{self.path}: holds no frames")

@@ -68,6 +68,11 @@ def _frames(readers, sbs, notes):
                     notes.append(f"{readers[ended].path} ended after {count} frames, "
                                  f"before {readers[other].path}; matched the {count} "
                                  "frames both have")
+                short = [r for r in readers if r.frames > r.read]
+                if short and not notes:  # a damaged file whose decoder dropped frames
+                    notes.append(f"{short[0].path}: its header says {short[0].frames} "
+                                 f"frames; {short[0].read} could be read (the others "
+                                 "are damaged, or the header's count was a guess)")
                 return
             count += 1
             index = items[0][0]

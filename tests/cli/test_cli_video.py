@@ -112,6 +112,16 @@ def test_a_damaged_frame_fails_alone_and_exits_1(tmp_path):
     assert (tmp_path / "maps" / "000005.pfm").exists()
 
 
+def test_a_video_cut_short_says_how_many_frames_its_header_gave(tmp_path):
+    video = sbs_mjpeg(tmp_path / "v.avi", 8)
+    data = video.read_bytes()
+    video.write_bytes(data[:len(data) // 2])
+    result = invoke("match", video, "--sbs", "-O", tmp_path / "maps", "--dmax", 15)
+    done = len(list((tmp_path / "maps").glob("0*.pfm")))
+    assert result.exit_code == 0 and 0 < done < 8, result.output
+    assert f"csw: {video}: its header says 8 frames; {done} could be read" in result.output
+
+
 def test_no_frame_matched_writes_no_preview_and_says_none(tmp_path):
     video = sbs_mjpeg(tmp_path / "v.avi", 3)
     damage_jpeg_frame(video, 0)
