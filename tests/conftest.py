@@ -20,7 +20,8 @@ def pytest_collection_finish(session):
     where the cache lacks them (tests/suite_kernels.py); within the session's time."""
     from suite_kernels import precompile
 
-    if not session.config.option.collectonly:
+    # Not for a collection that failed or selected nothing: its report comes first.
+    if session.items and not session.testsfailed and not session.config.option.collectonly:
         precompile()
 
 

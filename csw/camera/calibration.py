@@ -204,11 +204,11 @@ def read_calibration(path):
         reason = str(exc).splitlines()[0][:100] if str(exc) else type(exc).__name__
         raise OptionError("calib", f"{path}: not a readable .npy array ({reason})") from None
     try:
-        if re.search(r"^[ \t]*cam0\s*=", text, re.MULTILINE):
+        if re.search(r"^[^\S\n]*cam0\s*=", text, re.MULTILINE):
             return _middlebury(text, str(path))
-        if re.search(r"^[ \t]*(P2|P_rect_02)\s*:", text, re.MULTILINE):
+        if re.search(r"^[^\S\n]*(P2|P_rect_02)\s*:", text, re.MULTILINE):
             return _kitti(text, str(path))
-        if re.search(r"(^[ \t]*Q\s*:|<Q[\s>])", text, re.MULTILINE):
+        if re.search(r"(^[^\S\n]*Q\s*:|<Q[\s>])", text, re.MULTILINE):
             return from_q(_opencv_q(text, str(path)), str(path))
         if re.search(RIG_KEYS, text, re.MULTILINE):
             return _rig(path)
@@ -224,7 +224,7 @@ def read_calibration(path):
 
 # What a rig file (csw.read_rig's formats) holds: OpenCV's M1..T, ROS camera_info,
 # Kalibr's camchain.
-RIG_KEYS = r"\b[MD][12]\b|^[ \t]*camera_matrix\s*:|^[ \t]*T_cn_cnm1\s*:"
+RIG_KEYS = r"\b[MD][12]\b|^[^\S\n]*camera_matrix\s*:|^[^\S\n]*T_cn_cnm1\s*:"
 
 
 def _rig(path):
@@ -261,9 +261,9 @@ def _number(text, key, source):
     try:
         value = float(text)
     except ValueError:
-        raise ValueError(f"{source}: {key} must be a number, got {text!r}") from None
+        raise ValueError(f"{source}: {key} must be a number, got {text[:40]!r}") from None
     if not math.isfinite(value):
-        raise ValueError(f"{source}: {key} must be a finite number, got {text!r}")
+        raise ValueError(f"{source}: {key} must be a finite number, got {text[:40]!r}")
     return value
 
 
@@ -287,7 +287,7 @@ def _matrix(text, key, source, size):
 def _middlebury(text, source):
     """Middlebury 2014's calib.txt: cam0=[f 0 cx; 0 f cy; 0 0 1], cam1, doffs, baseline
     (mm), width, height, ndisp, ..., and csw rectify's units= (mm, or none)."""
-    values = dict(re.findall(r"^[ \t]*(\w+)\s*=\s*(.+?)\s*$", text, re.MULTILINE))
+    values = dict(re.findall(r"^[^\S\n]*(\w+)\s*=\s*(.*\S)[^\S\n]*$", text, re.MULTILINE))
     missing = [k for k in ("cam0", "baseline") if k not in values]
     if "doffs" not in values and "cam1" not in values:
         missing.append("doffs (or cam1)")
@@ -313,7 +313,7 @@ def _kitti(text, source):
     """KITTI: P2/P3 (the object and stereo benchmarks' calib files) or P_rect_02 and
     P_rect_03 (calib_cam_to_cam.txt), 3x4 projection matrices of the rectified colour
     cameras in metres."""
-    rows = dict(re.findall(r"^[ \t]*(\w+)\s*:\s*(.+?)\s*$", text, re.MULTILINE))
+    rows = dict(re.findall(r"^[^\S\n]*(\w+)\s*:\s*(.*\S)[^\S\n]*$", text, re.MULTILINE))
     left = rows.get("P2") or rows.get("P_rect_02")
     right = rows.get("P3") or rows.get("P_rect_03")
     if left is None or right is None:
@@ -327,7 +327,7 @@ def _kitti(text, source):
         raise ValueError(f"{source}: P2's focal length is 0")
     # P = K [I | t] with t = -C: the x offsets give the cameras' centres, in metres.
     baseline = (p2[0, 3] - p3[0, 3]) / focal
-    size = re.search(r"^[ \t]*S_rect_02\s*:\s*(.+?)\s*$", text, re.MULTILINE)
+    size = re.search(r"^[^\S\n]*S_rect_02\s*:\s*(.*\S)[^\S\n]*$", text, re.MULTILINE)
     width = height = None
     if size:
         found = _numbers(size.group(1))[:2]
@@ -352,7 +352,10 @@ def _opencv_q(text, source):
             raise ValueError(f"{source}: no Q matrix with its data")
         values = _opencv_numbers(node.find("data").text or "", source)
     else:
-        found = re.search(r"^[ \t]*Q\s*:.*?data\s*:\s*\[(.*?)\]", text, re.MULTILINE | re.DOTALL)
+        # The first data: [...] after the first Q key, each found once (a lazy match
+        # from every Q line to the file's end took the square of its size).
+        key = re.search(r"^[^\S\n]*Q\s*:", text, re.MULTILINE)
+        found = key and re.compile(r"data\s*:\s*\[([^\]]*)\]").search(text, key.end())
         if not found:
             raise ValueError(f"{source}: no Q matrix with its data: [...]")
         values = _opencv_numbers(found.group(1), source)

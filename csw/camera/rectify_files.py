@@ -64,7 +64,7 @@ def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
     from ..io.images import ImageError, read_colour
     from ..io.safety import check_outputs
 
-    made = not os.path.lexists(out_dir)
+    made = _missing_folders(out_dir)
     out_dir = _folder(out_dir)
     outputs = {"left": out_dir / "left.png", "right": out_dir / "right.png",
                "calib": out_dir / "calib.txt"}
@@ -81,21 +81,29 @@ def rectify_files(left, right, rig, out_dir, alpha=0.0, threads=None):
                 exc.option = name
                 raise
         left_r, right_r = rect.rectify(*images)
+        text = rect.calib_text().encode()
+
+        def write_text(tmp):
+            with open(tmp, "wb") as f:
+                f.write(text)
+
+        atomic_write_all([(outputs["left"], png_writer(left_r)),
+                          (outputs["right"], png_writer(right_r)),
+                          (outputs["calib"], write_text)])
     except BaseException:
-        if made:  # the folder this run made, still empty: nothing the user asked for
+        for folder in made:  # the folders this run made, still empty: none asked for
             with contextlib.suppress(OSError):
-                out_dir.rmdir()
+                folder.rmdir()
         raise
-    text = rect.calib_text().encode()
-
-    def write_text(tmp):
-        with open(tmp, "wb") as f:
-            f.write(text)
-
-    atomic_write_all([(outputs["left"], png_writer(left_r)),
-                      (outputs["right"], png_writer(right_r)),
-                      (outputs["calib"], write_text)])
     return rect
+
+
+def _missing_folders(path):
+    """The folders of ``path`` and its parents that do not exist yet, deepest first."""
+    from pathlib import Path
+
+    path = Path(path).absolute()
+    return [p for p in (path, *path.parents) if not os.path.lexists(p)]
 
 
 def rectify_many(jobs, rig, out_dir, alpha=0.0, threads=None, progress=False):

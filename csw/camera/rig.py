@@ -140,9 +140,9 @@ def _read(texts, names, count, size):
             raise ValueError(f"{names}: a ROS camera_info holds one camera; give the left "
                              "and the right one")
         return _ros(texts, names)
-    if re.search(r"^[ \t]*cam1\s*:", joined, re.MULTILINE) and "T_cn_cnm1" in joined:
+    if re.search(r"^[^\S\n]*cam1\s*:", joined, re.MULTILINE) and "T_cn_cnm1" in joined:
         return _kalibr(joined, names)
-    if re.search(r"^[ \t]*P_rect_03\s*:", joined, re.MULTILINE) and "K_02" in joined:
+    if re.search(r"^[^\S\n]*P_rect_03\s*:", joined, re.MULTILINE) and "K_02" in joined:
         return _kitti(joined, names)
     if re.search(r"\b[MD][12]\b", joined):
         return _opencv(joined, names, size)
@@ -199,13 +199,13 @@ def _yaml_node(text, key):
 
 def _opencv_size(text, source, size):
     for keys in (("width", "height"), ("image_width", "image_height")):
-        found = [re.search(rf"^[ \t]*{k}\s*:\s*(\d+)", text, re.MULTILINE) or
+        found = [re.search(rf"^[^\S\n]*{k}\s*:\s*(\d+)", text, re.MULTILINE) or
                  re.search(rf"<{k}>\s*(\d+)\s*</{k}>", text) for k in keys]
         if all(found):
             return _whole_size([f.group(1) for f in found], source)
     pair = _opencv_matrix(text, "(?:image_size|imageSize)", source, required=False)
     if pair is None:
-        pair = re.search(r"^[ \t]*(?:image_size|imageSize)\s*:\s*\[\s*(\d+)\s*,\s*(\d+)",
+        pair = re.search(r"^[^\S\n]*(?:image_size|imageSize)\s*:\s*\[\s*(\d+)\s*,\s*(\d+)",
                          text, re.MULTILINE)
         pair = [int(pair.group(1)), int(pair.group(2))] if pair else None
     if pair is not None and len(pair) == 2:
@@ -355,7 +355,7 @@ def rig_from_camera_info(cams, source):
 
 
 def _kitti(text, source):
-    rows = dict(re.findall(r"^[ \t]*(\w+)\s*:\s*(.+?)\s*$", text, re.MULTILINE))
+    rows = dict(re.findall(r"^[^\S\n]*(\w+)\s*:\s*(.*\S)[^\S\n]*$", text, re.MULTILINE))
 
     def matrix(key, shape):
         if key not in rows:

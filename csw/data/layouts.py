@@ -87,7 +87,7 @@ def read_ndisp(path):
     from ..io.safety import read_small
 
     text = read_small(path, "a calib.txt", DataError).decode(errors="replace")
-    found = re.search(r"^[ \t]*ndisp\s*=\s*(\S+)", text, re.MULTILINE)
+    found = re.search(r"^[^\S\n]*ndisp\s*=\s*(\S+)", text, re.MULTILINE)
     if not found:
         return None
     try:

@@ -253,49 +253,59 @@ def _missing_tiff_data(page, file_size):
 
 
 class _WhileCswReads(logging.Filter):
-    """Drops tifffile's and Pillow's log records (their modules' loggers too) while this
-    thread reads a file for csw (see :func:`quiet_decoders`)."""
-
-    reading = threading.local()
+    """Drops tifffile's and Pillow's log records (their modules' loggers too) while csw
+    reads a file with them (see :func:`quiet_decoders`)."""
 
     def filter(self, record):
-        return not (getattr(self.reading, "on", False) and
-                    record.name.split(".")[0] in ("tifffile", "PIL"))
+        return not (_QUIET["readers"] and record.name.split(".")[0] in ("tifffile", "PIL"))
 
 
 _DECODER_FILTER = _WhileCswReads()
+# Reads under way, in any thread (zarr decodes a TIFF's chunks in a thread of its own),
+# and those that hide Pillow's warnings, with the warnings.catch_warnings the first of
+# them entered: the process's warnings filters are one list, so they are changed once
+# for all the reads that overlap and put back when the last one ends.
+_QUIET = {"readers": 0, "pillow": 0, "caught": None}
+_QUIET_LOCK = threading.Lock()
 
 
 @contextlib.contextmanager
 def quiet_decoders(pillow_warnings=True):
-    """tifffile and Pillow hidden while this thread reads a file with them.  They log
-    what they find wrong in it (an offset past the end, a tag of an unknown type, more
-    samples than they decode), which logging's last resort prints on stderr where
-    nothing is configured (a filter there drops them; a program that configured logging
-    still gets them), and Pillow warns of damage it reads past (a directory cut short,
-    corrupt EXIF data) and of a decompression bomb.  csw reads the file or refuses it
-    with its own one-line error (the pixel limit is its own: check_pixels), so those
-    lines would be a second message.  Other threads' records still go out (a
-    notebook's own tifffile calls log).  pillow_warnings=False leaves the warnings
-    filters alone (a TIFF's rows, read by tifffile in stripes' threads: changing the
-    process's filters is not safe there)."""
+    """tifffile and Pillow hidden while csw reads a file with them.  They log what they
+    find wrong in it (an offset past the end, a tag of an unknown type, more samples
+    than they decode), which logging's last resort prints on stderr where nothing is
+    configured (a filter there drops them; a program that configured logging still gets
+    them), and Pillow warns of damage it reads past (a directory cut short, corrupt EXIF
+    data).  csw reads the file or refuses it with its own one-line error (the pixel
+    limit is its own: check_pixels), so those lines would be a second message.  While a
+    read is under way, other code's records and warnings of the two are hidden too.
+    pillow_warnings=False leaves the warnings filters alone (a TIFF's rows, read by
+    tifffile)."""
     import warnings
 
     from PIL import Image
 
     Image.MAX_IMAGE_PIXELS = None  # the limit is csw's own (check_pixels)
-    if logging.lastResort is not None:  # where a program configured logging, it shows
-        logging.lastResort.addFilter(_DECODER_FILTER)  # once: a set of filters
-    before = getattr(_WhileCswReads.reading, "on", False)
-    _WhileCswReads.reading.on = True
-    try:
-        with warnings.catch_warnings() if pillow_warnings else contextlib.nullcontext():
-            if pillow_warnings:
-                warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+    with _QUIET_LOCK:
+        if logging.lastResort is not None:
+            logging.lastResort.addFilter(_DECODER_FILTER)  # once: a set of filters
+        _QUIET["readers"] += 1
+        if pillow_warnings:
+            if _QUIET["pillow"] == 0:
+                _QUIET["caught"] = warnings.catch_warnings()
+                _QUIET["caught"].__enter__()
                 warnings.filterwarnings("ignore", category=UserWarning, module=r"PIL\.")
-            yield
+            _QUIET["pillow"] += 1
+    try:
+        yield
     finally:
-        _WhileCswReads.reading.on = before
+        with _QUIET_LOCK:
+            _QUIET["readers"] -= 1
+            if pillow_warnings:
+                _QUIET["pillow"] -= 1
+                if _QUIET["pillow"] == 0:
+                    _QUIET["caught"].__exit__(None, None, None)
+                    _QUIET["caught"] = None
 
 
 class Tiff:

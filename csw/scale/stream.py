@@ -649,8 +649,9 @@ class _FrameRun:
         wrote_bag = False
         if self.publish is not None:
             try:
-                self.publish.close()  # as the preview: what was matched, interrupted or not
-                wrote_bag = True
+                # as the preview: what was matched, interrupted or not (a bag of no
+                # messages is not written)
+                wrote_bag = bool(self.publish.close())
             except (OSError, LogError) as exc:
                 reason = f"the bag could not be written ({getattr(exc, 'strerror', None) or exc})"
                 self.stopped = f"{self.stopped}; {reason}" if self.stopped else reason

@@ -280,6 +280,6 @@ def test_a_given_rectification_that_cannot_be_inverted_is_one_line(rig_folder, s
         for n, m in (("R1", r1), ("R2", r2), ("P1", p1), ("P2", p2))))
     assert_refused(match_with(rig_folder, path), "stereo.yml", "left camera's", says)
     result = run("rectify", rig_folder / "l.png", rig_folder / "r.png", "--rig", path,
-                 "-O", rig_folder / "rect")
+                 "-O", rig_folder / "new" / "rect")
     assert_refused(result, says)
-    assert not (rig_folder / "rect").exists()
+    assert not (rig_folder / "new").exists()  # the folders it made for -O: gone again

@@ -62,7 +62,8 @@ def test_match_a_bag_writes_maps_a_summary_and_a_bag_of_messages(tmp_path, scene
     summary = json.loads((tmp_path / "maps" / "summary.json").read_text())
     assert [e["stamp"] for e in summary["pairs"]] == ["1700000000.000000000",
                                                       "1700000000.033333333"]
-    assert (tmp_path / "out.bag").is_file()
+    assert (tmp_path / "out.bag").is_file() and summary["bag_written"] is True
+    assert "wrote" in result.output.splitlines()[-1]
     # The cloud's points are csw cloud's on the same map, with the log's calibration.
     from plyfile import PlyData
 

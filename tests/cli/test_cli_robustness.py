@@ -161,15 +161,23 @@ def test_a_pfm_that_ends_in_its_header_is_refused_at_once(tmp_path, content, mes
     assert len(done.stderr.strip().splitlines()) == 1 and done.stderr.count("d.pfm") == 1
 
 
-@pytest.mark.parametrize("option", ["--calib", "--rig"])
-def test_a_calibration_of_a_million_blank_lines_is_refused_at_once(tmp_path, option):
-    """Under the 1 MiB limit: a pattern that let a line's start run over the blank lines
-    after it took minutes (its time grew with the square of their count)."""
+@pytest.mark.parametrize("content, option", [
+    ("\n" * (1 << 19), "--calib"),
+    ("\n" * (1 << 19), "--rig"),
+    ("cam0=[1 0 1; 0 1 1; 0 0 1]\nbaseline=1" + " " * (1 << 19) + "z\n", "--calib"),
+    ("%YAML:1.0\n" + "Q:\n" * (1 << 18), "--calib"),
+])
+def test_a_calibration_made_to_stall_its_parser_is_refused_at_once(tmp_path, content,
+                                                                   option):
+    """Under the 1 MiB limit, each once took minutes: a key's pattern whose line start
+    ran over every blank line below it, a value's lazy match against half a million
+    spaces, a Q key's search for its data from every Q line (their time grew with the
+    square of the size)."""
     import subprocess
     import sys
 
     write_float_pfm(tmp_path / "d.pfm", np.ones((4, 4), np.float32))
-    (tmp_path / "calib.txt").write_text("\n" * (1 << 19))
+    (tmp_path / "calib.txt").write_text(content)
     args = ["depth", str(tmp_path / "d.pfm"), "-o", str(tmp_path / "z.pfm")] \
         if option == "--calib" else ["rectify", str(tmp_path / "d.pfm"),
                                      str(tmp_path / "d.pfm"), "-O", str(tmp_path / "out")]
@@ -177,7 +185,19 @@ def test_a_calibration_of_a_million_blank_lines_is_refused_at_once(tmp_path, opt
                            str(tmp_path / "calib.txt")],
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
-    assert "calib.txt" in done.stderr and not (tmp_path / "z.pfm").exists()
+    assert "calib.txt" in done.stderr and len(done.stderr) < 400
+    assert not (tmp_path / "z.pfm").exists() and not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("indent", ["\f", "\xa0", "\t ", ""])
+def test_a_middlebury_calibration_s_keys_may_be_indented_by_any_space(tmp_path, indent):
+    from csw.camera.calibration import read_calibration
+
+    (tmp_path / "calib.txt").write_text(
+        f"{indent}cam0=[1000 0 40; 0 1000 30; 0 0 1]\r\n{indent}baseline=170\r\n"
+        f"{indent}doffs=0\r\n", encoding="utf-8")
+    calib = read_calibration(tmp_path / "calib.txt")
+    assert (calib.focal, calib.baseline) == (1000.0, 170.0)
 
 
 def test_an_image_over_the_pixel_limit_says_so(tmp_path, pair_files):

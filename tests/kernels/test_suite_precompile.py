@@ -4,7 +4,10 @@ its first test, on every core, and only when asked to (scripts/test.sh asks)."""
 import pytest
 import suite_kernels
 
-from csw.kernels import store
+from csw.kernels import native, store
+
+# With the JIT off nothing is compiled, ahead or not.
+compiles = pytest.mark.skipif(native.JIT_DISABLED, reason="NUMBA_DISABLE_JIT=1")
 
 
 @pytest.fixture
@@ -17,6 +20,7 @@ def one_listed(tmp_path, monkeypatch):
     return store.cache_dir()
 
 
+@compiles
 @pytest.mark.slow  # a compile worker: a few seconds
 def test_the_listed_entries_are_compiled_when_asked(one_listed, monkeypatch, capsys):
     monkeypatch.setenv("CSW_SUITE_PRECOMPILE", "1")
@@ -37,6 +41,7 @@ def test_nothing_is_compiled_unless_asked(one_listed, monkeypatch, asked):
     assert not one_listed.exists() or not list(one_listed.iterdir())
 
 
+@compiles
 def test_a_failed_compile_is_reported_and_left_to_the_tests(one_listed, monkeypatch, capsys):
     def broken(*args, **kwargs):
         raise RuntimeError("no compiler here")
