@@ -165,11 +165,35 @@ def _quiet_stdout():
         pass
 
 
+def _standard_streams():
+    """/dev/null in place of a standard stream the caller closed (``>&-``, ``2>&-``):
+    else the first file csw opens takes its descriptor, and what is written to the
+    stream (an error on stderr) goes into that file, or Python, which sets the stream to
+    None, fails where it flushes it."""
+    for fd, name, mode in ((0, "stdin", os.O_RDONLY), (1, "stdout", os.O_WRONLY),
+                           (2, "stderr", os.O_WRONLY)):
+        try:
+            os.fstat(fd)
+            continue
+        except OSError:
+            pass
+        try:
+            devnull = os.open(os.devnull, mode)
+            if devnull != fd:
+                os.dup2(devnull, fd)
+                os.close(devnull)
+        except OSError:
+            continue
+        if getattr(sys, name) is None:
+            setattr(sys, name, os.fdopen(fd, "r" if fd == 0 else "w", closefd=False))
+
+
 def main(args=None):
     """The ``csw`` entry point: the group, with Ctrl-C, SIGTERM and SIGHUP reported as an
     interrupt (exit 128 + the signal, one line) instead of Click's "Aborted!" and exit
     1.  Outputs are written through temporary files, so an interrupted run leaves none
     behind."""
+    _standard_streams()
     stop_on_signals()
     try:
         code = cli.main(args=args, prog_name="csw", standalone_mode=False)

@@ -112,7 +112,13 @@ class Calibration:
             raise OptionError("units", f"unknown units {units!r}; use {', '.join(UNITS)}")
         if self.units is None:
             return 1.0
-        return UNITS[self.units] / UNITS[units]
+        factor = UNITS[self.units] / UNITS[units]
+        # Depths are float32 (see __post_init__): focal x baseline in the new units too.
+        if not abs(self.focal * self.baseline * factor) < FLOAT32_MAX:
+            raise OptionError("units", f"{self.source}: in {units}, focal length x baseline "
+                                       f"is {abs(self.focal * self.baseline * factor):g}, "
+                                       "past what a depth map holds; use a larger unit")
+        return factor
 
     def with_units(self, units):
         """This calibration with its units named (None: as it is): for a source that

@@ -50,7 +50,8 @@ def depth(disparity, calib, units=None):
     scale = calib.scale_to(units)
     (_, _, z, w), valid = _homogeneous(disparity, calib)
     out = np.full(z.shape, np.nan, np.float32)
-    out[valid] = (z[valid] / w[valid] * scale).astype(np.float32)
+    with np.errstate(over="ignore"):  # a point too far for float32 is inf: invalid
+        out[valid] = (z[valid] / w[valid] * scale).astype(np.float32)
     return out
 
 
@@ -70,7 +71,8 @@ def point_cloud(disparity, calib, image=None, max_depth=None, units=None, rotati
     points = np.stack([x[valid], y[valid], z[valid]], axis=1) / w[valid][:, None] * scale
     if rotation is not None:
         points = points @ np.asarray(rotation, np.float64).T
-    return points.astype(np.float32), _colours(image, valid)
+    with np.errstate(over="ignore"):  # as depth's
+        return points.astype(np.float32), _colours(image, valid)
 
 
 def _colours(image, valid):

@@ -41,8 +41,9 @@ def mode_for(path):
 
 
 def _short(name):
-    """The target's name as a temporary's name holds it: at most NAME_BYTES bytes."""
-    return name.encode()[:NAME_BYTES].decode(errors="ignore")
+    """The target's name as a temporary's name holds it: at most NAME_BYTES bytes (the
+    file system's bytes: a name that is not UTF-8 comes from Python as surrogates)."""
+    return os.fsencode(name)[:NAME_BYTES].decode(errors="ignore")
 
 
 def temporary_prefix(name):

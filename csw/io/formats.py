@@ -14,6 +14,7 @@ Stripe writers take ``blocks(rows, bottom_up=False)``, an iterator factory over 
 float32 rows) of the map, so that a map bigger than memory is written a band at a time.
 """
 
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -256,6 +257,9 @@ def read_disparity(path, scale=None):
     ground truth: see the dataset's scale).
     """
     path = Path(path)
+    if scale is not None and not (math.isfinite(scale) and 1e-30 < scale < 1e30):
+        raise ValueError(f"the scale of {path}'s values must be a number between 1e-30 "
+                         f"and 1e30, got {scale!r}")
     safety.protect(path)
     safety.check_input(path, "a disparity map file", ImageError)
     return format_of(path, "read").read(path, scale)

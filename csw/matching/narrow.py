@@ -36,10 +36,13 @@ def half(image):
     return total.astype(image.dtype)
 
 
-def narrows(slots, dmin, dmax):
+def narrows(slots, dmin, dmax, width=None):
     """Whether a search of ``slots`` disparities a pixel narrows dmin..dmax: a range at
-    most that wide is searched whole."""
-    return 0 < slots < dmax - dmin + 1
+    most that wide is searched whole, and so is one at the edge of an image ``width``
+    wide (dmax = W - 1 of an odd W, dmin = 1 - W), past the half width's once halved."""
+    half = None if width is None else width // 2
+    return 0 < slots < dmax - dmin + 1 and (half is None or -half < dmin // 2 <= dmax // 2
+                                            < half)
 
 
 def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
@@ -49,7 +52,7 @@ def starts(left, right, *, dmin, dmax, slots, threads=None, **match_options):
     workspace whose slabs the full pass takes next) as the full pass's; None where the
     range is at most ``slots`` wide (nothing to narrow)."""
     ndisp = dmax - dmin + 1
-    if not narrows(slots, dmin, dmax) or min(left.shape) < 4:
+    if not narrows(slots, dmin, dmax, left.shape[1]) or min(left.shape) < 4:
         return None
     # Half the range, floored at both ends: an odd dmax's top half-size match (dmax / 2
     # rounded up) is within MARGIN of its rounded-down neighbour, and the half range's

@@ -57,7 +57,7 @@ def literal_tau(ctx, param, value):
                  "(see csw match) around every row.")
 @opt.option("window", short="-w",
             help="Odd window side [default: the preset's: 9, 5 for sgm].")
-@opt.option("dmin", default=params.DEFAULTS["dmin"])
+@opt.experiment_dmin_option
 @opt.dataset_dmax_option
 @click.option("--repeat", type=click.IntRange(1, 1000), default=params.BENCH_REPEAT,
               show_default=True, help="Timed runs of each variant; the median is reported.")

@@ -20,9 +20,9 @@ PRESET = params.EXPERIMENT_PRESET
 @opt.option("engine", preset=PRESET)
 @opt.option("cost", preset=PRESET)
 @opt.option("window", short="-w", preset=PRESET)
-@opt.option("dmin")
-@opt.option("dmax", help="Largest disparity [default: the dataset's range, or "
-                         f"{params.FIXED_DMAX}].")
+@opt.experiment_dmin_option
+@click.option("--dmax", type=click.IntRange(min=0), default=None,
+              help=f"Largest disparity [default: the dataset's range, or {params.FIXED_DMAX}].")
 @opt.option("csw", help="Histogram the CSW run's m instead of plain matching's.")
 @opt.option("tau", help="tau for --csw [default: the paper's rule].")
 @click.option("--plot", type=click.Path(dir_okay=False),
@@ -54,7 +54,8 @@ def hist(ctx, images, dataset, plot, fmt, data_dir, download, verify, **_):
     options = opt.given(ctx, ["engine", "cost", "window", "dmin", "dmax", "csw", "tau",
                               "threads", "preset", *params.OFF])
     with opt.library_errors():
-        params.resolve(**options)  # a bad option fails before any file is read
+        # a bad option fails before any file is read, over the preset the run takes
+        params.resolve(**{"preset": params.EXPERIMENT_PRESET, **options})
         PairOutputs({"plot": plot},
                     dict(zip(("left", "right"), images, strict=False))).check_paths()
     if dataset:

@@ -30,7 +30,7 @@ def summary_line(result):
     engine = f"{s['engine']} engine"
     if s.get("aggregate") == "sgm":
         mode = f"SGM {s['sgm_paths']} paths P1 {s['sgm_p1']} P2 {s['sgm_p2']}"
-        if narrows(s.get("sgm_narrow", 0), s["dmin"], s["dmax"]):
+        if narrows(s.get("sgm_narrow", 0), s["dmin"], s["dmax"], width):
             mode += f", {s['sgm_narrow']} disparities a pixel after a half-size pass"
         engine = "semi-global"
     stripes = f", {result.stripes} stripe(s)" if result.stripes else ""
