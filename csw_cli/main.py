@@ -55,8 +55,22 @@ class LazyGroup(click.Group):
         # (csw.io.safety), whatever the command.
         from csw.io.safety import guarding
 
-        with guarding():
-            return super().invoke(ctx)
+        try:
+            with guarding():
+                return super().invoke(ctx)
+        except Stopped as exc:
+            if exc.signum == signal.SIGINT:
+                raise  # Click closes the terminal's ^C echo with a blank line
+            raise _Ended(exc.signum) from None  # past Click, which would print one too
+
+
+class _Ended(BaseException):
+    """A run stopped by SIGTERM or SIGHUP, its clean-up done: carried past Click's
+    handlers (which print a blank line for a KeyboardInterrupt) to main's one line."""
+
+    def __init__(self, signum):
+        super().__init__(signum)
+        self.signum = signum
 
     def format_commands(self, ctx, formatter):
         for title, names in (("Commands", FIRST),
@@ -209,7 +223,7 @@ def main(args=None):
                        f"({exc.__context__ or 'unexpected end of file'})", err=True)
             sys.exit(1)
         _interrupted(getattr(exc.__context__, "signum", signal.SIGINT))
-    except KeyboardInterrupt as exc:
+    except (KeyboardInterrupt, _Ended) as exc:
         _interrupted(getattr(exc, "signum", signal.SIGINT))
     except click.exceptions.Exit as exc:
         sys.exit(exc.exit_code)

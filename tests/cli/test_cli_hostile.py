@@ -372,7 +372,10 @@ def test_sigterm_and_sighup_behave_like_ctrl_c(tmp_path, signum):
     process.send_signal(signum)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 128 + signum, stderr
-    assert stderr.strip().splitlines()[-1].startswith("csw: stopped by")
+    lines = stderr.splitlines()
+    assert lines[-1] == f"csw: stopped by {signal.Signals(signum).name}; no partial file " \
+        "was left"
+    assert "" not in lines  # Click's blank line closes a ^C's echo, and none was typed
     assert "Traceback" not in stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == before
 
