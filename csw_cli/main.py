@@ -63,15 +63,6 @@ class LazyGroup(click.Group):
                 raise  # Click closes the terminal's ^C echo with a blank line
             raise _Ended(exc.signum) from None  # past Click, which would print one too
 
-
-class _Ended(BaseException):
-    """A run stopped by SIGTERM or SIGHUP, its clean-up done: carried past Click's
-    handlers (which print a blank line for a KeyboardInterrupt) to main's one line."""
-
-    def __init__(self, signum):
-        super().__init__(signum)
-        self.signum = signum
-
     def format_commands(self, ctx, formatter):
         for title, names in (("Commands", FIRST),
                              ("Benchmarks, experiments and set-up",
@@ -92,6 +83,15 @@ def cli():
       csw match left.png right.png -o disp.pfm --depth depth.pfm --calib calib.txt
     """
 
+
+
+class _Ended(BaseException):
+    """A run stopped by SIGTERM or SIGHUP, its clean-up done: carried past Click's
+    handlers (which print a blank line for a KeyboardInterrupt) to main's one line."""
+
+    def __init__(self, signum):
+        super().__init__(signum)
+        self.signum = signum
 
 
 class Stopped(KeyboardInterrupt):
