@@ -208,11 +208,14 @@ dataset_dir_option = click.option(
 bench_threads_option = click.option(
     "--threads", "-j", type=click.IntRange(min=1), default=params.BENCH_THREADS,
     show_default=True, help="Threads (1 = the paper's single core).")
-# The experiments' ranges (bench, hist): numbers, or the dataset's; 'auto', which finds
-# a pair's range as csw match does, is not theirs (their rows compare one given range).
-dataset_dmax_option = click.option(
-    "--dmax", type=click.IntRange(min=0), default=None,
-    help="Largest disparity [default: the dataset's range].")
+
+
+# The experiments' ranges (bench, hist, sweep): numbers, or the dataset's; 'auto', which
+# finds a pair's range as csw match does, is not theirs (their rows compare one range).
+def dataset_dmax_option(help="Largest disparity [default: the dataset's range]."):
+    return click.option("--dmax", type=click.IntRange(min=0), default=None, help=help)
+
+
 experiment_dmin_option = click.option(
     "--dmin", type=int, default=0, show_default=True,
     help="Smallest disparity searched; below 0 for convergent rigs.")

@@ -119,14 +119,13 @@ class VideoReader:
         context = self._stream.codec_context
         self.size = (int(context.width), int(context.height))
         self.frames = int(self._stream.frames or 0)
-        self.read = 0  # frames yielded so far (see __iter__)
+        self.read = 0  # frames yielded so far, lost ones too: the next frame's index
         rate = self._stream.average_rate or self._stream.guessed_rate
         self.rate = float(rate) if rate else 0.0
 
     def __iter__(self):
         av = _av()
-        index = end = 0
-        self.read = 0  # frames yielded, lost ones too
+        end = 0
         try:
             for packet in self._container.demux(self._stream):
                 if packet.pos is not None and packet.size:
@@ -136,24 +135,24 @@ class VideoReader:
                 except av.error.FFmpegError as exc:
                     # A damaged packet: its frame is lost; the decoder goes on from the
                     # next one (and conceals what it can in the frames after it).
-                    yield index, VideoError(f"{self.path}: frame {index} can't be decoded "
-                                            f"({_reason(exc)})"), None
-                    index = self.read = index + 1
+                    yield self.read, VideoError(f"{self.path}: frame {self.read} can't be "
+                                                f"decoded ({_reason(exc)})"), None
+                    self.read += 1
                     continue
                 for frame in decoded:
-                    yield (index, *self._arrays(frame))
-                    index = self.read = index + 1
-            if index == 0:  # the run stops, saying so (a header's count can be a guess:
-                # only an empty file is sure to be wrong)
+                    yield (self.read, *self._arrays(frame))
+                    self.read += 1
+            if self.read == 0:  # the run stops, saying so (a header's count can be a
+                # guess: only an empty file is sure to be wrong)
                 raise VideoError(f"{self.path}: holds no frames")
             if self._container.format.name == "yuv4mpegpipe" and not self.live and \
                     os.path.getsize(self.path) > end:  # raw frames end to end: the demuxer
                 # drops a last frame that the file cuts short, without a word
-                raise VideoError(f"{self.path}: the file ends inside frame {index} (cut "
-                                 "short)")
+                raise VideoError(f"{self.path}: the file ends inside frame {self.read} "
+                                 "(cut short)")
         except av.error.FFmpegError as exc:  # the container itself, past a point
-            yield index, VideoError(f"{self.path}: the file is damaged after frame "
-                                    f"{index} ({_reason(exc)})"), None
+            yield self.read, VideoError(f"{self.path}: the file is damaged after "
+                                        f"frame {self.read} ({_reason(exc)})"), None
         finally:
             self.close()
 

@@ -58,7 +58,7 @@ def literal_tau(ctx, param, value):
 @opt.option("window", short="-w",
             help="Odd window side [default: the preset's: 9, 5 for sgm].")
 @opt.experiment_dmin_option
-@opt.dataset_dmax_option
+@opt.dataset_dmax_option()
 @click.option("--repeat", type=click.IntRange(1, 1000), default=params.BENCH_REPEAT,
               show_default=True, help="Timed runs of each variant; the median is reported.")
 @opt.bench_threads_option

@@ -21,8 +21,8 @@ PRESET = params.EXPERIMENT_PRESET
 @opt.option("cost", preset=PRESET)
 @opt.option("window", short="-w", preset=PRESET)
 @opt.experiment_dmin_option
-@click.option("--dmax", type=click.IntRange(min=0), default=None,
-              help=f"Largest disparity [default: the dataset's range, or {params.FIXED_DMAX}].")
+@opt.dataset_dmax_option(
+    help=f"Largest disparity [default: the dataset's range, or {params.FIXED_DMAX}].")
 @opt.option("csw", help="Histogram the CSW run's m instead of plain matching's.")
 @opt.option("tau", help="tau for --csw [default: the paper's rule].")
 @click.option("--plot", type=click.Path(dir_okay=False),
@@ -55,7 +55,7 @@ def hist(ctx, images, dataset, plot, fmt, data_dir, download, verify, **_):
                               "threads", "preset", *params.OFF])
     with opt.library_errors():
         # a bad option fails before any file is read, over the preset the run takes
-        params.resolve(**{"preset": params.EXPERIMENT_PRESET, **options})
+        params.resolve(**{"preset": PRESET, **options})
         PairOutputs({"plot": plot},
                     dict(zip(("left", "right"), images, strict=False))).check_paths()
     if dataset:

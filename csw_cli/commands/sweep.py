@@ -47,7 +47,7 @@ def parse_ints(ctx, param, value):
               help="Comma-separated margins (percent) for the unique rule "
                    f"[default: {params.CSW_MARGIN_TEXT}].")
 @opt.option("window", short="-w", default=params.DEFAULTS["window"])
-@opt.dataset_dmax_option
+@opt.dataset_dmax_option()
 @opt.option("threads", short="-j")
 @click.option("--plot", type=click.Path(dir_okay=False),
               help="Also write the curves as a PNG (one dataset only; needs matplotlib).")
