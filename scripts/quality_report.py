@@ -19,6 +19,7 @@ import numpy as np
 
 import csw
 import peers
+from csw.config.params import PRESETS
 from csw.data import datasets as D
 from csw.data import layouts
 from csw.data.synth import render
@@ -360,6 +361,7 @@ def markdown(results, block, block_means, peak, passes, images, repeat):
     """The report's text: scripts/templates/quality.md, filled in from the figures."""
     head = dict(
         date=now_utc(), cpu=cpu_name(), repeat=repeat, sgm=SGM, camera=CAMERA,
+        window=PRESETS["sgm"]["window"],
         accurate=RECOMMENDED, block=block,
         block_means=", ".join(f"{b}: {m:.2f}%" for b, m in block_means.items()),
         group_means=group_means(results, [SGM, RECOMMENDED, CAMERA, SGBM_SAMPLE, SGBM,

@@ -32,6 +32,7 @@ import numpy as np  # noqa: E402
 
 import csw  # noqa: E402
 import peers  # noqa: E402
+from csw.config.params import PRESETS  # noqa: E402
 from csw.data import layouts  # noqa: E402
 from csw.data.synth import render, write_tiff_scene  # noqa: E402
 from csw.io import read_disparity  # noqa: E402
@@ -192,6 +193,7 @@ def main():
         big_peak, big_seconds = big_striped(work)
     text = fill_template("sgm", [("report", dict(
         date=now_utc(), cpu=cpu_name(), llvm_cpu=target_cpu(), rounds=args.rounds,
+        window=PRESETS[PRESET]["window"],
         speed_rows="\n".join(rows), ours=spread(ours), theirs=spread(theirs),
         ratios=spread(ratios), ours_1=spread(rates["csw"][1]),
         theirs_1=spread(rates["SGBM"][1]), csw_scaling=spread(scaling["csw"]),

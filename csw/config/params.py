@@ -285,17 +285,21 @@ PRESETS = {
     "camera": {**OFF, "cost": "sad", "window": 7, "prefilter": "xsobel", "winner_check": 1,
                "speckle_size": 50, "speckle_range": 1.0},
     # Semi-global matching for maps dense enough to drive on (reports/quality.md): the
-    # same sparse 9x9 census summed over a 5x5 window (denser than each pixel's own
-    # code: 92% against 82% on the KITTI pairs), aggregated along 4 paths with the
+    # same sparse 9x9 census summed over a 3x3 window (denser than each pixel's own
+    # code: 90% against 82% on the KITTI pairs), aggregated along 4 paths with the
     # penalties scaled to it (8 paths smeared more wrong values into patches that
     # survive the checks), the left-right check at 1, a parabola through the aggregated
-    # costs, speckles under 400 pixels (steps of 2) removed and a 3x3 median.  Ranges
-    # wider than 64 are narrowed to 64 disparities a pixel after a half-size pass: on the
-    # pairs of reports/quality.md as dense or denser, and as low or lower in filled
-    # error but on Adirondack (+0.01 point) and the synthetic 1080p pair (+0.07), and
-    # faster (docs/engines.md, "Narrowed search").
+    # costs, speckles under 400 pixels (steps of 2) removed and a 3x3 median.  A 5x5
+    # window is denser (92% on KITTI) and lower in KITTI's mean filled error (4.53%
+    # against 4.79), but it carries matches across edges: higher in bad over valid on
+    # every registered pair, and in filled error above the accurate preset on cones and
+    # baby1-half.  Ranges wider than 64 are narrowed to 64 disparities a pixel after a
+    # half-size pass: as dense or denser on every pair of reports/quality.md, faster,
+    # and as low or lower in filled error but on six pairs (at most +0.4 point: KITTI
+    # 2015 000001, bowling1-half; the KITTI mean 4.79 against 4.83 whole;
+    # docs/engines.md, "Narrowed search").
     "sgm": {**OFF, "cost": "census", "census_window": 9, "census_pattern": "sparse",
-            "window": 5, "aggregate": "sgm", "sgm_paths": 4, "lr_check": 1,
+            "window": 3, "aggregate": "sgm", "sgm_paths": 4, "lr_check": 1,
             "subpixel": "parabola", "speckle_size": 400, "speckle_range": 2.0, "median": 3,
             "sgm_narrow": 64},
 }

@@ -179,7 +179,7 @@ def test_score_options_that_conflict_fail_before_any_download(tmp_path, monkeypa
 
 def test_bench_scores_kitti_with_d1_and_middlebury_2014_with_bad_2(tmp_path):
     """Folders as published, built on the fly; the sgm preset gets plain rows only (CSW
-    can't skip costs that semi-global matching needs), on its own 5x5 window."""
+    can't skip costs that semi-global matching needs), on its own 3x3 window."""
     from layout_fixtures import kitti, middlebury2014
 
     import csw
@@ -193,8 +193,8 @@ def test_bench_scores_kitti_with_d1_and_middlebury_2014_with_bad_2(tmp_path):
     assert result.exit_code == 0, result.output
     rows = json.loads(result.stdout)
     assert [(r["dataset"], r["metric"], r["csw"], r["engine"], r["window"]) for r in rows
-            if r.get("metric")] == [("000000_10", "D1", False, "fast", 5),
-                                     ("Scene", "bad-2", False, "fast", 5)]
+            if r.get("metric")] == [("000000_10", "D1", False, "fast", 3),
+                                     ("Scene", "bad-2", False, "fast", 3)]
     assert rows[0]["algorithm"] == "CENSUS + SGM"
     for row, scene in zip(rows, [*csw.scan_folder(tmp_path / "kitti"),
                                  *csw.scan_folder(tmp_path / "mb")], strict=False):

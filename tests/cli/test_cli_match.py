@@ -40,7 +40,7 @@ def test_match_writes_pfm_equal_to_kernel(pair_files, tmp_path, small_scene):
 
 
 @pytest.mark.parametrize("options, described", [
-    ((), "CENSUS (sparse 9x9 codes) 5x5 SGM 4 paths P1 200 P2 800, preset sgm"),
+    ((), "CENSUS (sparse 9x9 codes) 3x3 SGM 4 paths P1 72 P2 288, preset sgm"),
     (("--preset", "accurate"), "CENSUS (sparse 9x9 codes) 9x9 plain, preset accurate"),
     (("--preset", "accurate", "--census-window", 5, "--census-pattern", "dense",
       "--window", 7), "CENSUS (dense 5x5 codes) 7x7 plain, preset accurate"),

@@ -30,7 +30,7 @@ def test_default_penalties_are_reported_resolved():
     left, right, _, _ = render(64, 40, dmax=8, seed=1)
     s = csw.match(left, right, preset="sgm", dmax=10).settings
     bits = 32  # the sparse 9x9 census
-    assert (s["sgm_p1"], s["sgm_p2"]) == (bits * 25 // 4, bits * 25)
+    assert (s["sgm_p1"], s["sgm_p2"]) == (bits * 9 // 4, bits * 9)  # its 3x3 window
     # A P1 given above the default P2 lifts the P2 left to default with it.
     s = csw.match(left, right, preset="sgm", dmax=10, sgm_p1=5000).settings
     assert (s["sgm_p1"], s["sgm_p2"]) == (5000, 5000)
