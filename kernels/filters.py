@@ -8,11 +8,18 @@ worker (kernels/jit/filters.py); row-local ones in parallel stripes of rows.  cs
 validates and calls them.
 """
 
+import functools
+
 import numpy as np
 
 from . import native, runtime
 from .catalogue import entry
 from .workspace import empty
+
+# Columns a median above 3 x 3 sorts at once (kernels/jit/filters.py: median_block):
+# their values, 49 rows of 64 at 7 x 7, stay in the first-level cache through the
+# network's passes.
+MEDIAN_BLOCK = 64
 
 # The speckle filter's work per pixel in runtime.DIRECT_WORK's units: about 6 ns a pixel
 # in one thread.
@@ -250,12 +257,45 @@ def median_valid(disp, size, threads=None):
     size x size window (the lower middle for an even count); invalid pixels stay NaN."""
     disp = np.ascontiguousarray(disp, np.float32)
     out = np.empty_like(disp)
-    # One thread: about 30 ns a pixel at 3 x 3 (a sorting network), 400 at 5 x 5 (an
-    # insertion sort), so a KITTI frame's median is worth both threads.
-    _by_rows("median", dict(disp=disp, out=out, size=int(size)), disp.shape[0],
-             scratch={"window": lambda: np.empty(size * size, np.float32)}, threads=threads,
-             per_pixel=170 if size == 3 else 20 * int(size) ** 3)
+    lanes = size * size + 1
+    exchanges = median_network(int(size))
+    # Sorting networks, one thread: about 26 ns a pixel at 5 x 5 and 50 at 7 x 7 (a unit
+    # of work an exchange), where an insertion sort took 290 at 5 x 5; so a KITTI
+    # frame's median is worth both threads.
+    _by_rows("median", dict(disp=disp, out=out, size=int(size), exchanges=exchanges),
+             disp.shape[0],
+             scratch={"window": lambda: np.empty(size * size, np.float32),
+                      "lanes": lambda: np.empty((lanes, MEDIAN_BLOCK), np.float32),
+                      "ranks": lambda: np.empty(MEDIAN_BLOCK, np.int32)},
+             threads=threads, per_pixel=170 if size == 3 else len(exchanges) + 10)
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def median_network(size):
+    """int32 (E, 2): the exchanges (wire pairs i < j: the smaller value to i) that put
+    ranks 0 .. (n - 1) // 2 of n = size * size values in place: Batcher's odd-even merge
+    sort of the next power of two, less the exchanges with a wire past n (those wires
+    would hold +inf, so the exchange changes nothing) and those no kept rank depends on.
+    tests/library/test_pipeline.py checks it on every 0-1 input of the 5 x 5 window's."""
+    n = size * size
+    wires = 1 << max(n - 1, 0).bit_length()
+    network, p = [], 1
+    while p < wires:
+        k = p
+        while k >= 1:
+            for j in range(k % p, wires - k, 2 * k):
+                for i in range(min(k, wires - j - k)):
+                    if (i + j) // (2 * p) == (i + j + k) // (2 * p) and i + j + k < n:
+                        network.append((i + j, i + j + k))
+            k //= 2
+        p *= 2
+    needed, kept = set(range((n - 1) // 2 + 1)), []
+    for a, b in reversed(network):
+        if a in needed or b in needed:
+            kept.append((a, b))
+            needed |= {a, b}
+    return np.array(kept[::-1], np.int32).reshape(-1, 2)
 
 
 def fill_background(disp, threads=None):

@@ -54,9 +54,12 @@ def spec(kind):
                               arg("first", I64, 1), arg("here", I32, 1),
                               arg("above", I32, 1), arg("max_diff", F64, 1),
                               arg("edges", I64, 1)), SPECKLE),
-        # disp, out (H, W); window (size*size,) scratch
+        # disp, out (H, W); exchanges (E, 2) the sorting network of a window above 3 x 3
+        # (kernels/filters.py: median_network); window (size*size,), lanes
+        # (size*size + 1, B), ranks (B,) scratch of the stripe, B columns at once
         "median": (median_valid, (arg("disp", F32, 2), arg("out", F32, 2),
-                                  arg("window", F32, 1)), MEDIAN),
+                                  arg("exchanges", I32, 2), arg("window", F32, 1),
+                                  arg("lanes", F32, 2), arg("ranks", I32, 1)), MEDIAN),
         "fill": (fill_background, (arg("disp", F32, 2), arg("out", F32, 2)), FILL),
         # disp (H, W), lr_valid (H, W) or a (1, W) dummy unless checked, out (H, W)
         "float": (as_float, (arg("disp", I32, 2), arg("lr_valid", U8, 2),
@@ -356,29 +359,89 @@ def median_nine(up, row, down, out):
 
 
 @njit(**SERIAL)
-def median_valid(disp, out, window, sc):
+def median_block(disp, y, x0, count, h, exchanges, lanes, ranks, out_row):
+    """out_row[x] for x = x0 .. x0 + count - 1, columns whose (2h + 1)^2 window lies
+    within the map's width (rows beyond its top or bottom are none of the window's): the
+    median of the window's valid pixels, as median_at, for count <= B columns at once.
+    Each of the n = (2h + 1)^2 window positions is a row of lanes, the invalid pixels
+    +inf (after every valid one); the network (exchanges: (E, 2) int32 wire pairs, the
+    smaller value to the first) then orders the ranks a median can take, and each column
+    takes rank (valid - 1) // 2.  Every loop runs over the block's columns with no
+    branch, so that it vectorises.  lanes: float32 (n + 1, B), ranks: int32 (B,),
+    scratch."""
+    height = disp.shape[0]
+    size = 2 * h + 1
+    n = size * size
+    inf = np.float32(np.inf)
+    for t in range(count):
+        ranks[t] = -1
+    for dy in range(size):
+        yy = y + dy - h
+        for dx in range(size):
+            lane = lanes[dy * size + dx]
+            if 0 <= yy < height:
+                source = disp[yy, x0 + dx - h:x0 + dx - h + count]
+                for t in range(count):
+                    v = source[t]
+                    ranks[t] += np.int32(v == v)
+                    lane[t] = v if v == v else inf
+            else:
+                for t in range(count):
+                    lane[t] = inf
+    for e in range(exchanges.shape[0]):
+        low, high = lanes[exchanges[e, 0]], lanes[exchanges[e, 1]]
+        for t in range(count):
+            a, b = low[t], high[t]
+            low[t], high[t] = min(a, b), max(a, b)
+    chosen, least = lanes[n], lanes[0]
+    for t in range(count):
+        chosen[t] = least[t]
+    for r in range(1, (n - 1) // 2 + 1):
+        lane = lanes[r]
+        for t in range(count):
+            chosen[t] = lane[t] if ranks[t] >> 1 == r else chosen[t]
+    centre = disp[y, x0:x0 + count]
+    for t in range(count):
+        out_row[x0 + t] = chosen[t] if centre[t] == centre[t] else np.float32(np.nan)
+
+
+@njit(**SERIAL)
+def median_valid(disp, out, exchanges, window, lanes, ranks, sc):
     """out[y, x]: for each valid pixel, the median of the valid pixels in its size x size
     window (the lower middle for an even count); NaN for invalid pixels; rows y0 to y1
-    (sc: MEDIAN).  window: (size * size,) scratch, kept sorted by insertion; a 3 x 3
-    window away from the map's edges goes through median_nine."""
+    (sc: MEDIAN).  The columns whose window lies within the map's width go through
+    median_nine (3 x 3, rows inside the map) or median_block (larger windows, blocks of
+    as many columns as lanes has, the network in exchanges); the others through
+    median_at, its insertion sort into window.  exchanges, window, lanes, ranks: see
+    spec."""
     height, width = disp.shape
     size = sc[MEDIAN.size]
     h = size // 2
-    inner = width - 2
+    inner = width - 2 * h  # the columns whose window lies within the width
     for y in range(sc[MEDIAN.y0], sc[MEDIAN.y1]):
+        first, end = 0, 0  # the columns done by a network
         if size == 3 and 0 < y < height - 1 and inner > 0:
             up, row, down = disp[y - 1], disp[y], disp[y + 1]
             median_nine((up[:inner], up[1:inner + 1], up[2:]),
                         (row[:inner], row[1:inner + 1], row[2:]),
                         (down[:inner], down[1:inner + 1], down[2:]), out[y, 1:width - 1])
-            step = width - 1  # the two edge columns left
-        else:
-            step = 1
-        for x in range(0, width, step):
+            first, end = 1, width - 1
+        elif size > 3 and inner > 0:
+            block = lanes.shape[1]
+            for x0 in range(h, width - h, block):
+                median_block(disp, y, x0, min(block, width - h - x0), h, exchanges, lanes,
+                             ranks, out[y])
+            first, end = h, width - h
+        x = 0
+        while x < width:
+            if x == first and first < end:
+                x = end
+                continue
             if np.isnan(disp[y, x]):
                 out[y, x] = np.nan
             else:
                 out[y, x] = median_at(disp, y, x, h, window)
+            x += 1
     return 0
 
 

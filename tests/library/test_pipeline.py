@@ -45,7 +45,7 @@ def test_speckle_median_fill(seed, size, step):
     disp = random_map(rng, (7, 11))
     np.testing.assert_array_equal(filters.speckle_mask(disp, size, step),
                                   oracle.speckles(disp, size, step))
-    for k in (3, 5):
+    for k in (3, 5, 7):
         np.testing.assert_array_equal(filters.median_valid(disp, k), oracle.median_valid(disp, k))
     filled = filters.fill_background(disp)
     np.testing.assert_array_equal(filled, oracle.fill_background(disp))
@@ -78,6 +78,39 @@ def test_a_3x3_median_of_every_small_shape_equals_the_oracle(holes):
         disp = random_map(rng, shape, levels=50, holes=holes)
         np.testing.assert_array_equal(filters.median_valid(disp, 3),
                                       oracle.median_valid(disp, 3))
+
+
+def test_the_5x5_medians_network_puts_every_rank_it_keeps_in_place():
+    """By the 0-1 principle, over all 2^25 inputs of 0s and 1s (bit-sliced: wire i holds
+    bit i of every input m, 8 inputs a byte): a network puts rank r in place for every
+    input if it does for every 0-1 input, where rank r is 1 exactly when the input has
+    more than 24 - r ones."""
+    network = filters.median_network(5)
+    chunk = np.arange(1 << 20, dtype=np.uint32)
+    for high in range(1 << 5):
+        inputs = chunk | np.uint32(high << 20)
+        wires = [np.packbits((inputs >> np.uint32(i)) & np.uint32(1)) for i in range(25)]
+        for a, b in network:
+            wires[a], wires[b] = wires[a] & wires[b], wires[a] | wires[b]
+        ones = np.bitwise_count(inputs)
+        for rank in range(13):
+            np.testing.assert_array_equal(wires[rank], np.packbits(ones > 24 - rank))
+
+
+@pytest.mark.parametrize("size", [5, 7, 9])
+@pytest.mark.parametrize("holes", [0.0, 0.3, 0.9])
+def test_a_larger_median_equals_the_oracle_across_blocks_and_edges(size, holes):
+    """The network's blocks of columns (filters.MEDIAN_BLOCK; the last one short), the
+    rows above and below the map none of the window's, equal values, infinities, and
+    maps narrower than the window (no inner column: the edges' insertion sort alone)."""
+    rng = np.random.default_rng(size)
+    shapes = [(1, 3), (4, 2 * size - 2), (size + 2, size), (6, 2 * filters.MEDIAN_BLOCK + 13)]
+    for shape in shapes:
+        disp = random_map(rng, shape, levels=12, holes=holes)
+        disp[rng.random(shape) < 0.03] = np.inf
+        disp[rng.random(shape) < 0.03] = -np.inf
+        np.testing.assert_array_equal(filters.median_valid(disp, size),
+                                      oracle.median_valid(disp, size))
 
 
 @pytest.mark.two_cores
