@@ -90,6 +90,25 @@ def test_one_row_less_of_input_overlap_would_differ(tmp_path, scene, monkeypatch
                 np.array_equal(conf, whole.confidence))
 
 
+def test_sgm_stripes_pair_the_rows_its_half_size_pass_averages(tmp_path):
+    """The narrowed search's half-size pass averages rows 2k and 2k + 1: a stripe read
+    from an odd row (here 150 less the overlap, odd at 69) would average other pairs and
+    differ far below its edge; read from an even row, the rows beyond the overlap equal
+    the whole image's."""
+    left, right, _, _ = render(256, 300, dmax=100, seed=3)
+    whole = csw.match(left, right, dmin=0, dmax=127).disparity
+    result = tiled.match_tiled(left, right, tmp_path / "d.npy", stripe_rows=150, dmin=0,
+                               dmax=127)
+    layout = result.plan
+    assert layout.paired_rows and layout.row_overlap % 2 == 1
+    for stripe in layout.stripes:
+        first, end = tiled_plan.input_band(stripe, layout)
+        assert first % 2 == 0 and (end - first) % 2 == 0
+    beyond = 150 + layout.row_overlap
+    np.testing.assert_array_equal(np.load(tmp_path / "d.npy")[beyond:],
+                                  as_stored(whole[beyond:]))
+
+
 def filter_in_stripes(tmp_path, disp, stages, rows, overlap):
     """The second pass alone: ``disp`` in a stage store, filtered stripe by stripe."""
     shape = disp.shape

@@ -35,7 +35,9 @@ class MemoryLimitError(ValueError):
 class Plan:
     """How a pair is cut: core stripes of ``stripe_rows`` rows (the last may be shorter),
     each read with ``row_overlap`` input rows and ``filter_overlap`` map rows beyond, and
-    at least ``window`` input rows (the kernels' minimum)."""
+    at least ``window`` input rows (the kernels' minimum).  ``paired_rows``: a half-size
+    pass (semi-global matching's narrowed search) averages rows 2k and 2k + 1, so each
+    stripe's input starts at an even row and holds whole pairs."""
 
     height: int
     width: int
@@ -44,6 +46,7 @@ class Plan:
     filter_overlap: int
     bytes_per_stripe: int
     window: int = 1
+    paired_rows: bool = False
 
     @property
     def stripes(self):
@@ -133,7 +136,8 @@ def plan(height, width, config, memory_limit=None, stripe_rows=None, threads=Non
         if rows < 1:
             raise ValueError(f"stripe_rows must be at least 1, got {rows}")
         rows = min(rows, height)
-    return Plan(height, width, rows, over, fover, need(rows), config.window)
+    paired = st.aggregate == "sgm" and bool(st.sgm_narrow)
+    return Plan(height, width, rows, over, fover, need(rows), config.window, paired)
 
 
 def too_big_for_whole(left, config, memory_limit=None):
@@ -151,12 +155,19 @@ def too_big_for_whole(left, config, memory_limit=None):
 def input_band(stripe, plan):
     """(first, end) input rows that stripe (start, stop) is matched from: the overlap each
     side, within the image, grown to at least one window (the kernels refuse fewer rows;
-    rows beyond the overlap change nothing, they are only more context)."""
+    rows beyond the overlap change nothing, they are only more context), and to whole
+    pairs of rows where the plan's half-size pass pairs them.  (A stripe read from an
+    odd row averaged other rows than the whole image's half-size pass does, and its
+    narrowed search differed far from its edges: 0.34% of a 2000 x 2000 pair's pixels
+    in two stripes, against 0.003% with the rows paired.)"""
     start, stop = stripe
     first = max(0, start - plan.row_overlap)
     end = min(plan.height, stop + plan.row_overlap)
     while end - first < min(plan.window, plan.height):
         first, end = max(0, first - 1), min(plan.height, end + 1)
+    if plan.paired_rows:
+        first -= first % 2
+        end = min(plan.height, end + (end - first) % 2)
     return first, end
 
 
