@@ -17,8 +17,8 @@ from .catalogue import entry
 from .workspace import empty
 
 # Columns a median above 3 x 3 sorts at once (kernels/jit/filters.py: median_block):
-# their values, 49 rows of 64 at 7 x 7, stay in the first-level cache through the
-# network's passes.
+# their window values and the chosen medians, 50 rows of 64 at 7 x 7 (13 KB), stay in
+# the first-level cache through the network's passes.
 MEDIAN_BLOCK = 64
 
 # The speckle filter's work per pixel in runtime.DIRECT_WORK's units: about 6 ns a pixel
@@ -255,13 +255,17 @@ class SpeckleCall:
 def median_valid(disp, size, threads=None):
     """float32 (H, W): each valid pixel becomes the median of the valid pixels in its
     size x size window (the lower middle for an even count); invalid pixels stay NaN."""
+    if int(size) != size or size < 1 or size % 2 == 0:
+        raise ValueError(f"the median's size must be odd and at least 1, got {size!r}")
     disp = np.ascontiguousarray(disp, np.float32)
     out = np.empty_like(disp)
     lanes = size * size + 1
     exchanges = median_network(int(size))
-    # Sorting networks, one thread: about 26 ns a pixel at 5 x 5 and 50 at 7 x 7 (a unit
-    # of work an exchange), where an insertion sort took 290 at 5 x 5; so a KITTI
-    # frame's median is worth both threads.
+    # Sorting networks, one thread: about 24 ns a pixel at 5 x 5 and 64 at 7 x 7 (a unit
+    # of work an exchange), where an insertion sort took 290 and 680; so a KITTI frame's
+    # median is worth both threads.  3 x 3 (1.5 ns a pixel) keeps the work it was rated
+    # at under the insertion sort, and with it both threads on a KITTI frame (its
+    # median takes 0.6-0.7 ms on one thread or two).
     _by_rows("median", dict(disp=disp, out=out, size=int(size), exchanges=exchanges),
              disp.shape[0],
              scratch={"window": lambda: np.empty(size * size, np.float32),
@@ -275,8 +279,10 @@ def median_valid(disp, size, threads=None):
 def median_network(size):
     """int32 (E, 2): the exchanges (wire pairs i < j: the smaller value to i) that put
     ranks 0 .. (n - 1) // 2 of n = size * size values in place: Batcher's odd-even merge
-    sort of the next power of two, less the exchanges with a wire past n (those wires
-    would hold +inf, so the exchange changes nothing) and those no kept rank depends on.
+    sort of the next power of two, less the exchanges with a wire at or past n (those
+    wires would hold +inf, so the exchange changes nothing) and those no kept rank
+    depends on.  Ties between -0.0 and +0.0 may come out either way (as in the 3 x 3
+    network).
     tests/library/test_pipeline.py checks it on every 0-1 input of the 5 x 5 window's."""
     n = size * size
     wires = 1 << max(n - 1, 0).bit_length()

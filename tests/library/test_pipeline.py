@@ -104,13 +104,16 @@ def test_a_larger_median_equals_the_oracle_across_blocks_and_edges(size, holes):
     rows above and below the map none of the window's, equal values, infinities, and
     maps narrower than the window (no inner column: the edges' insertion sort alone)."""
     rng = np.random.default_rng(size)
-    shapes = [(1, 3), (4, 2 * size - 2), (size + 2, size), (6, 2 * filters.MEDIAN_BLOCK + 13)]
+    shapes = [(1, 3), (3, size - 1), (4, 2 * size - 2), (size + 2, size),
+              (6, 2 * filters.MEDIAN_BLOCK + 13)]
     for shape in shapes:
         disp = random_map(rng, shape, levels=12, holes=holes)
         disp[rng.random(shape) < 0.03] = np.inf
         disp[rng.random(shape) < 0.03] = -np.inf
         np.testing.assert_array_equal(filters.median_valid(disp, size),
                                       oracle.median_valid(disp, size))
+    with pytest.raises(ValueError, match="odd"):  # the kernel's scratch is sized for odd
+        filters.median_valid(disp, size - 1)
 
 
 @pytest.mark.two_cores

@@ -5,7 +5,7 @@ Rows are independent in CSW, so a stripe read with the rows above and below that
 windows reach gives exactly the rows of a whole-image match (:func:`csw.matching.pipeline.
 row_overlap`).  Semi-global matching's paths cross every row: its stripes take
 csw.matching.stages.SGM_MARGIN rows more each side, and a few pixels near their edges
-may differ from the whole image's (reports/scale.md measures how many).
+may differ from the whole image's (reports/sgm.md measures how many).
 
 The speckle filter and the median look across rows: when they are on, a
 second pass reads the first pass's map back with the rows they need
@@ -37,7 +37,8 @@ class Plan:
     each read with ``row_overlap`` input rows and ``filter_overlap`` map rows beyond, and
     at least ``window`` input rows (the kernels' minimum).  ``paired_rows``: a half-size
     pass (semi-global matching's narrowed search) averages rows 2k and 2k + 1, so each
-    stripe's input starts at an even row and holds whole pairs."""
+    stripe's input starts at an even row and holds whole pairs (but at an odd image's
+    last row, which the half-size pass leaves out as the whole image's does)."""
 
     height: int
     width: int
@@ -112,8 +113,10 @@ def plan(height, width, config, memory_limit=None, stripe_rows=None, threads=Non
     # and the invalid-value conversion beside them.
     writing = resident + 4 * TIFF_TILE * width * 4
 
+    paired = st.aggregate == "sgm" and bool(st.sgm_narrow)
+
     def need(rows):  # peak bytes of a stripe of ``rows`` core rows
-        band1 = min(height, rows + 2 * over)
+        band1 = min(height, rows + 2 * over + (2 if paired else 0))  # see input_band
         band2 = min(height, rows + 2 * fover) if fover else 0
         aggregated = sgm.memory(band1, width, config.dmax - config.dmin + 1, config.window,
                                 st.sgm_paths, threads) if st.aggregate == "sgm" else 0
@@ -136,7 +139,6 @@ def plan(height, width, config, memory_limit=None, stripe_rows=None, threads=Non
         if rows < 1:
             raise ValueError(f"stripe_rows must be at least 1, got {rows}")
         rows = min(rows, height)
-    paired = st.aggregate == "sgm" and bool(st.sgm_narrow)
     return Plan(height, width, rows, over, fover, need(rows), config.window, paired)
 
 
