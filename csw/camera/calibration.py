@@ -19,7 +19,7 @@ import numpy as np
 
 from ..config.params import OptionError
 from ..io import safety
-from .rig import UNITS
+from .rig import UNITS, key_values
 
 MAX_FILE_BYTES = safety.SMALL_FILE_BYTES  # a calibration is a few lines
 
@@ -293,7 +293,7 @@ def _matrix(text, key, source, size):
 def _middlebury(text, source):
     """Middlebury 2014's calib.txt: cam0=[f 0 cx; 0 f cy; 0 0 1], cam1, doffs, baseline
     (mm), width, height, ndisp, ..., and csw rectify's units= (mm, or none)."""
-    values = dict(re.findall(r"^[^\S\n]*(\w+)\s*=\s*(.*\S)[^\S\n]*$", text, re.MULTILINE))
+    values = key_values(text, "=")
     missing = [k for k in ("cam0", "baseline") if k not in values]
     if "doffs" not in values and "cam1" not in values:
         missing.append("doffs (or cam1)")
@@ -319,7 +319,7 @@ def _kitti(text, source):
     """KITTI: P2/P3 (the object and stereo benchmarks' calib files) or P_rect_02 and
     P_rect_03 (calib_cam_to_cam.txt), 3x4 projection matrices of the rectified colour
     cameras in metres."""
-    rows = dict(re.findall(r"^[^\S\n]*(\w+)\s*:\s*(.*\S)[^\S\n]*$", text, re.MULTILINE))
+    rows = key_values(text, ":")
     left = rows.get("P2") or rows.get("P_rect_02")
     right = rows.get("P3") or rows.get("P_rect_03")
     if left is None or right is None:

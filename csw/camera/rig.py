@@ -354,8 +354,18 @@ def rig_from_camera_info(cams, source):
     return Rig(k1, d1, k2, d2, r, t, sizes.pop(), model, (r1, r2, p1, p2), None, source)
 
 
+def key_values(text, separator):
+    """{key: value} of a calibration text's ``key<separator>value`` lines (KITTI's
+    ``P2: ...``, Middlebury's ``baseline=...``), the value without its outer blanks, a
+    later key over an earlier one.  A line's indent is its own blanks: ``\\s`` would run
+    on across empty lines, and from each of a hostile file's many blank lines (the
+    square of its size)."""
+    return dict(re.findall(rf"^[^\S\n]*(\w+)\s*{separator}\s*(.*\S)[^\S\n]*$", text,
+                           re.MULTILINE))
+
+
 def _kitti(text, source):
-    rows = dict(re.findall(r"^[^\S\n]*(\w+)\s*:\s*(.*\S)[^\S\n]*$", text, re.MULTILINE))
+    rows = key_values(text, ":")
 
     def matrix(key, shape):
         if key not in rows:

@@ -388,6 +388,8 @@ def median_block(disp, y, x0, count, h, exchanges, lanes, ranks, out_row):
             else:
                 for t in range(count):
                     lane[t] = inf
+    for t in range(count):
+        ranks[t] >>= 1  # from the valid count less one to the median's rank
     for e in range(exchanges.shape[0]):
         low, high = lanes[exchanges[e, 0]], lanes[exchanges[e, 1]]
         for t in range(count):
@@ -399,7 +401,7 @@ def median_block(disp, y, x0, count, h, exchanges, lanes, ranks, out_row):
     for r in range(1, (n - 1) // 2 + 1):
         lane = lanes[r]
         for t in range(count):
-            chosen[t] = lane[t] if ranks[t] >> 1 == r else chosen[t]
+            chosen[t] = lane[t] if ranks[t] == r else chosen[t]
     centre = disp[y, x0:x0 + count]
     for t in range(count):
         out_row[x0 + t] = chosen[t] if centre[t] == centre[t] else np.float32(np.nan)

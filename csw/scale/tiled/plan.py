@@ -20,6 +20,7 @@ from ...io.formats import TIFF_TILE
 from ...io.sources import open_source
 from ...kernels import runtime, sgm
 from ...matching.disparity_range import assumed_range
+from ...matching.narrow import narrows
 from ...matching.pipeline import filter_overlap, row_overlap
 from ...matching.stages import BAND_BYTES, MAP_BYTES, active, needs_extras
 
@@ -113,7 +114,9 @@ def plan(height, width, config, memory_limit=None, stripe_rows=None, threads=Non
     # and the invalid-value conversion beside them.
     writing = resident + 4 * TIFF_TILE * width * 4
 
-    paired = st.aggregate == "sgm" and bool(st.sgm_narrow)
+    # The pipeline's own decision (csw.matching.narrow) whether a half-size pass runs.
+    paired = st.aggregate == "sgm" and narrows(st.sgm_narrow, config.dmin, config.dmax,
+                                               width)
 
     def need(rows):  # peak bytes of a stripe of ``rows`` core rows
         band1 = min(height, rows + 2 * over + (2 if paired else 0))  # see input_band
