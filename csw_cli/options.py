@@ -7,6 +7,7 @@ fills in the rest.
 """
 
 import contextlib
+from pathlib import Path
 
 import click
 
@@ -36,19 +37,20 @@ class InputError(click.ClickException):
 def library_errors(hint=None):
     """Turn the library's errors into Click's.  A bad value or file is an InputError
     (exit 2, one line), naming the option it belongs to (the error's ``option``, as a
-    flag of the running command) or ``hint``; registry data that can't be had is a
-    runtime error (exit 1)."""
-    from csw import DataError, ImageError
+    flag of the running command) or ``hint``, but for an environment variable's (the
+    error's ``variable``, which its message names); registry data that can't be had is
+    a runtime error (exit 1)."""
+    from csw import DataError
 
     try:
         yield
-    except ImageError as exc:
-        raise InputError(str(exc), _hint(exc) or hint) from None
     except DataError as exc:
         if hint:
             raise InputError(str(exc), hint) from None
         raise click.ClickException(str(exc)) from None
-    except ValueError as exc:
+    except ValueError as exc:  # csw.ImageError among them
+        if getattr(exc, "variable", None) is not None:
+            raise InputError(str(exc)) from None
         raise InputError(str(exc), _hint(exc) or hint) from None
     except ImportError as exc:
         raise click.ClickException(str(exc)) from None
@@ -189,8 +191,26 @@ def given(ctx, names, rename=None):
 format_option = click.option(
     "--format", "fmt", type=click.Choice(FORMATS), default="table", show_default=True,
     help="Output format of the table on stdout.")
+
+
+def _existing_folder(ctx, param, value):
+    """The datasets' folder, checked here rather than by Click's Path(exists=True), whose
+    error named --data-dir, after its usage lines, where CSW_DATA_DIR gave the folder."""
+    if value is None:
+        return None
+    from click.core import ParameterSource
+
+    named = "CSW_DATA_DIR" if ctx.get_parameter_source(param.name) is \
+        ParameterSource.ENVIRONMENT else param.opts[0]
+    folder = Path(value).expanduser()
+    if not folder.is_dir():
+        why = "is not a folder" if folder.exists() else "does not exist"
+        raise InputError(f"{named} names {value!r}, which {why}")
+    return value
+
+
 data_dir_option = click.option(
-    "--data-dir", type=click.Path(file_okay=False, exists=True), envvar="CSW_DATA_DIR",
+    "--data-dir", type=click.Path(), envvar="CSW_DATA_DIR", callback=_existing_folder,
     help="Folder holding the registered datasets (default: $CSW_DATA_DIR, then the user "
          "cache, then a download from the official Middlebury URLs).")
 download_option = click.option(

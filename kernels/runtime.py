@@ -41,10 +41,15 @@ def max_threads():
     value = os.environ.get("NUMBA_NUM_THREADS", "").strip()
     if value:
         try:
-            return max(1, int(value))
+            count = int(value)
         except ValueError:
-            raise ValueError(f"NUMBA_NUM_THREADS must be a whole number of threads, got "
-                             f"{value!r}") from None
+            count = 0
+        if count < 1:
+            error = ValueError(f"NUMBA_NUM_THREADS must be a whole number of threads, at "
+                               f"least 1, got {value[:40]!r}")
+            error.variable = "NUMBA_NUM_THREADS"
+            raise error
+        return count
     return cores()
 
 

@@ -39,10 +39,10 @@ def _cv2():
 
 def parse_board(text):
     """(columns, rows) of inner corners from "9x6"; ValueError otherwise."""
-    found = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", str(text))
+    found = re.fullmatch(r"\s*(\d{1,9})\s*[xX]\s*(\d{1,9})\s*", str(text))
     if not found or min(int(found.group(1)), int(found.group(2))) < 2:
         raise ValueError(f"the board is its inner corners, COLUMNSxROWS (e.g. 9x6), each at "
-                         f"least 2, not {text!r}")
+                         f"least 2, not {str(text)[:40]!r}")
     return int(found.group(1)), int(found.group(2))
 
 

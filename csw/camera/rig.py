@@ -207,7 +207,7 @@ def _opencv_size(text, source, size):
     if pair is None:
         pair = re.search(r"^[^\S\n]*(?:image_size|imageSize)\s*:\s*\[\s*(\d+)\s*,\s*(\d+)",
                          text, re.MULTILINE)
-        pair = [int(pair.group(1)), int(pair.group(2))] if pair else None
+        pair = [pair.group(1), pair.group(2)] if pair else None
     if pair is not None and len(pair) == 2:
         return _whole_size(pair, source)
     if size is None:
@@ -289,6 +289,18 @@ def _yaml(text, source):
                 return super().compose_node(parent, index)
             finally:
                 self.depth -= 1
+
+        def construct_yaml_int(self, node):
+            # Python refuses to read a whole number of over 4,300 digits, in words
+            # about sys.set_int_max_str_digits that name no file.
+            try:
+                return super().construct_yaml_int(node)
+            except ValueError:
+                raise ValueError(f"{source}: line {node.start_mark.line + 1} holds a "
+                                 f"number of {len(node.value):,} characters; not a rig "
+                                 "file") from None
+
+    Loader.add_constructor("tag:yaml.org,2002:int", Loader.construct_yaml_int)
 
     text = re.sub(r"^%YAML[: ]1\.\d\s*$", "", text, flags=re.MULTILINE)
     try:

@@ -64,16 +64,21 @@ DEFAULT_MAX_PIXELS = 178_956_970
 
 
 def max_pixels():
-    """The pixel limit: CSW_MAX_PIXELS where set, else DEFAULT_MAX_PIXELS."""
+    """The pixel limit: CSW_MAX_PIXELS where set, else DEFAULT_MAX_PIXELS; a ValueError
+    whose ``variable`` names CSW_MAX_PIXELS when it is no limit (the CLI then blames the
+    variable, not the image it was reading)."""
     value = os.environ.get("CSW_MAX_PIXELS", "").strip()
     if not value:
         return DEFAULT_MAX_PIXELS
     try:
         limit = int(value)
     except ValueError:
-        raise ImageError(f"CSW_MAX_PIXELS must be a whole number, got {value!r}") from None
-    if limit < 1:
-        raise ImageError(f"CSW_MAX_PIXELS must be at least 1, got {value!r}")
+        limit = None
+    if limit is None or limit < 1:
+        error = ValueError(f"CSW_MAX_PIXELS must be a whole number of at least 1, got "
+                           f"{value[:40]!r}")
+        error.variable = "CSW_MAX_PIXELS"
+        raise error
     return limit
 
 

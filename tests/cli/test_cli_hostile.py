@@ -584,6 +584,39 @@ def test_striped_and_whole_maps_of_a_16_bit_rgb_tiff_agree(tmp_path, small_scene
 # ---------------------------------------------------------------- the environment
 
 
+@pytest.mark.parametrize("variable, value", [
+    ("CSW_MAX_PIXELS", "abc"), ("CSW_MAX_PIXELS", "0"), ("CSW_MAX_PIXELS", "9" * 5000),
+    ("NUMBA_NUM_THREADS", "9" * 5000),
+    ("NUMBA_NUM_THREADS", "0"), ("NUMBA_NUM_THREADS", "-2")])
+def test_a_bad_variable_is_blamed_by_its_name(tmp_path, pair_files, monkeypatch, variable,
+                                              value):
+    """Not on the image being read when the variable was (CSW_MAX_PIXELS was blamed on
+    LEFT), and not taken as some other value (NUMBA_NUM_THREADS=0 ran on one thread)."""
+    monkeypatch.setenv(variable, value)
+    result = invoke("match", *pair_files, "-o", tmp_path / "d.pfm", "--dmax", 8)
+    assert one_line(result) and result.exit_code == 2, result.output
+    assert result.output.startswith(f"Error: {variable} must be") and len(result.output) < 200
+    assert not (tmp_path / "d.pfm").exists()
+
+
+@pytest.mark.parametrize("given", ["variable", "option", "a file"])
+def test_a_data_folder_that_is_not_there_is_named_as_it_was_given(tmp_path, monkeypatch,
+                                                                    given):
+    """CSW_DATA_DIR's missing folder was reported as --data-dir's, after Click's usage
+    lines."""
+    (tmp_path / "file").write_text("")
+    missing = tmp_path / "missing"
+    if given == "variable":
+        monkeypatch.setenv("CSW_DATA_DIR", str(missing))
+        result, says = invoke("datasets"), "CSW_DATA_DIR names"
+    else:
+        folder = missing if given == "option" else tmp_path / "file"
+        result, says = invoke("datasets", "--data-dir", folder), "--data-dir names"
+    assert one_line(result) and result.exit_code == 2, result.output
+    assert says in result.output
+    assert ("not a folder" if given == "a file" else "does not exist") in result.output
+
+
 def test_empty_or_bad_variables_are_one_line(tmp_path, pair_files, monkeypatch):
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("NUMBA_NUM_THREADS", "abc")

@@ -169,6 +169,26 @@ def test_an_opencv_rig_s_width_past_any_image_is_one_line(rig_folder, width):
     assert not (rig_folder / "z.pfm").exists()
 
 
+@pytest.mark.parametrize("fmt", ["ros", "opencv"])
+def test_a_number_of_thousands_of_digits_is_the_file_s_error(rig_folder, fmt):
+    """Python reads no whole number of over 4,300 digits; its refusal named no file and
+    told the user to call sys.set_int_max_str_digits."""
+    huge = "9" * 5001
+    if fmt == "ros":
+        path = rig_folder / "left.yaml"
+        path.write_text(path.read_text().replace("image_width: 64", f"image_width: {huge}"))
+        result, says = match_with(rig_folder, path, rig_folder / "right.yaml"), \
+            ("left.yaml", "5,001 characters")
+    else:
+        path = rig_folder / "stereo.yml"
+        text = path.read_text().replace("width: 64", "").replace("height: 48", "")
+        path.write_text(text + f"image_size: [{huge}, 48]\n")
+        result, says = match_with(rig_folder, path), ("stereo.yml", "whole numbers")
+    assert_refused(result, *says)
+    assert "set_int_max_str_digits" not in result.output
+    assert not (rig_folder / "d.pfm").exists()
+
+
 @pytest.mark.parametrize("size", [(100_000, 100_000), (8000, 6000)])
 def test_a_rig_s_declared_size_is_checked_before_its_maps_are_built(rig_folder, size):
     for name in ("left.yaml", "right.yaml"):
