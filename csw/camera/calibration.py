@@ -212,7 +212,8 @@ def read_calibration(path):
     try:
         if re.search(r"^[^\S\n]*cam0\s*=", text, re.MULTILINE):
             return _middlebury(text, str(path))
-        if re.search(r"^[^\S\n]*(P2|P_rect_02)\s*:", text, re.MULTILINE):
+        # KITTI's rows hold their numbers; an OpenCV rig's P2 (!!opencv-matrix) does not.
+        if re.search(r"^[^\S\n]*(P2|P_rect_02)\s*:[^\S\n]*[-+.\d]", text, re.MULTILINE):
             return _kitti(text, str(path))
         if re.search(r"(^[^\S\n]*Q\s*:|<Q[\s>])", text, re.MULTILINE):
             return from_q(_opencv_q(text, str(path)), str(path))

@@ -204,6 +204,22 @@ def test_units_are_carried_through_rectify_never_invented(raw_pair, monkeypatch,
         (rect / "calib.txt").read_text()
 
 
+def test_calib_reads_an_opencv_rig_that_gives_its_rectification(raw_pair):
+    """An OpenCV rig with R1, R2, P1, P2 (stereoRectify's) and no Q: its "P2:" line was
+    taken for a KITTI calib's, which was then refused for lacking P3."""
+    from rig_fixtures import write_opencv
+
+    from csw.camera.calibration import read_calibration
+
+    folder, rig = raw_pair
+    rect = Rectifier(rig)
+    path = folder / "rectified.yml"
+    write_opencv(path, rig, given={"R1": rect.r1, "R2": rect.r2, "P1": rect.p1,
+                                   "P2": rect.p2},
+                 keys=("M1", "D1", "M2", "D2", "R", "T", "R1", "R2", "P1", "P2"))
+    assert read_calibration(path).matrix().tolist() == rect.calibration.matrix().tolist()
+
+
 def test_calib_takes_a_rig_file_or_names_rig(raw_pair):
     """One door: --calib reads every rig file (its rectified pair's geometry gives Q, as
     csw rectify's calib.txt), or its one-line error names --rig."""
