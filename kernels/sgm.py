@@ -267,11 +267,10 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     lr_valid = output(into, "lr_valid", (height, width), np.uint8) if checked else \
         np.empty((1, width), np.uint8)
     single_pass = paths == 5
-    pad = pad_of(ndisp, banded)
     bands, rows_per_band = band_plan(height, width, ndisp,
                                      acc.itemsize + cost_type(cmax, acc).itemsize,
                                      downward_paths(paths) * acc.itemsize *
-                                     (ndisp + 2 * pad) / ndisp, band_bytes, single_pass)
+                                     (ndisp + 2) / ndisp, band_bytes, single_pass)
     # The slabs from the thread's workspace where there is one (kernels/workspace.py):
     # a stream's or a notebook's next match reuses them (a half-size pass's as well).
     costs = slab(workspace, "sgm-costs", (rows_per_band, width, ndisp), cost_type(cmax, acc))
@@ -280,9 +279,9 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
     big = sentinel(cmax, p2, banded)  # the d axis's sentinels
 
     def fresh_state(path):
-        state = empty(workspace, f"sgm-{path}", (2, width, ndisp + 2 * pad), acc)
+        state = empty(workspace, f"sgm-{path}", (2, width, ndisp + 2), acc)
         state.fill(big)
-        state[:, :, pad:pad + ndisp] = 0
+        state[:, :, 1:1 + ndisp] = 0
         return state, np.zeros((2, width), acc)
 
     down, down_mins = fresh_state("down")
@@ -302,6 +301,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                 row_costs=np.empty((1, 1), costs.dtype), spans=np.empty((2, 1), np.int32),
                 state=dummy3, mins=dummy2,
                 other=dummy3, other_mins=dummy2, line=dummy2,
+                moved=np.empty(1, acc),  # a banded step's own: moved_row
                 right_best=np.empty(1, acc), right_d=np.empty(1, np.int16),
                 disp=disp, min_cost=min_cost, second=maps[0], prev=maps[1], next=maps[2],
                 right_disp=maps[3], lr_valid=lr_valid, window=s.window, dmin=s.dmin,
@@ -347,13 +347,14 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
 
         def stripe(i, stop):
             x0, x1 = int(edges[i]), int(edges[i + 1])
-            status = run(**dict(base, **cost_scratch(), state=down, mins=down_mins, add=add,
+            scratch = cost_scratch()
+            status = run(**dict(base, **scratch, state=down, mins=down_mins, add=add,
                                 step=COSTS, y0=y0, y1=y1, band_y0=y0, x0=x0, x1=x1,
                                 stop=stop))
             if then_up:
-                status = run(**dict(base, state=up, mins=up_mins, step=VERTICAL, y0=y0,
-                                    y1=y1, band_y0=y0, x0=x0, x1=x1, direction=-1, add=1,
-                                    stop=stop))
+                status = run(**dict(base, moved=scratch["moved"], state=up, mins=up_mins,
+                                    step=VERTICAL, y0=y0, y1=y1, band_y0=y0, x0=x0, x1=x1,
+                                    direction=-1, add=1, stop=stop))
             return status
 
         runtime.run_stripes(stripe, count, count, (y1 - y0) * work_per_row,
@@ -430,20 +431,26 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
                     row_sums=np.empty(full, acc), ring=np.empty(ring, np.uint8),
                     row_costs=np.empty((width, full) if banded and s.window == 1 else (1, 1),
                                        costs.dtype),
-                    spans=np.empty((2, left_p.shape[1]), np.int32))
+                    spans=np.empty((2, left_p.shape[1]), np.int32), moved=moved_row())
+
+    def moved_row():
+        """A step's scratch for moving a banded path's state to its pixel's slots
+        (kernels/jit/sgm.py, meet), one per thread; a whole-range step's is never used
+        (base's)."""
+        return np.empty(ndisp + 2 if banded else 1, acc)
 
     def select_scratch():
-        line = np.full((2, ndisp + 2 * pad), big, acc)
-        return dict(line=line, right_best=np.empty(right_width, acc),
+        line = np.full((2, ndisp + 2), big, acc)
+        return dict(line=line, moved=moved_row(), right_best=np.empty(right_width, acc),
                     right_d=np.empty(right_width, np.int16))
 
     def diagonal(y0, y1, pair, direction, add):
         (state, mins), (other, other_mins) = pair
         runtime.run_stripes(
-            lambda i, stop: run(**dict(base, state=state, mins=mins, other=other,
-                                       other_mins=other_mins, step=DIAGONAL, y0=y0,
-                                       y1=y1, band_y0=y0, direction=direction, add=add,
-                                       stop=stop)),
+            lambda i, stop: run(**dict(base, moved=moved_row(), state=state, mins=mins,
+                                       other=other, other_mins=other_mins, step=DIAGONAL,
+                                       y0=y0, y1=y1, band_y0=y0, direction=direction,
+                                       add=add, stop=stop)),
             1, 1, 0)
 
     def two_passes(bands):
@@ -467,7 +474,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
             else:
                 for array in (down, down_mins) + ((down_l, down_l_mins, down_r, down_r_mins)
                                                   if diagonals else ()):
-                    _reset(array, pad)
+                    _reset(array)
             if in_halves(y0, y1):
                 halves(y0, y1)
                 continue
@@ -510,16 +517,9 @@ def padded_depth(ndisp, cmax, p1, p2, costs_dtype):
     return ndisp + LANES - left_over
 
 
-def pad_of(slots, banded):
-    """The sentinels each side of a path state's ``slots`` values: one, or a banded
-    match's slots + 2 (kernels/jit/sgm.py)."""
-    return slots + 2 if banded else 1
-
-
-def _reset(array, pad):
-    """A path state (or its minima) as at a path's start: zeros between the sentinels
-    (pad each side of the d axis)."""
+def _reset(array):
+    """A path state (or its minima) as at a path's start: zeros between the sentinels."""
     if array.ndim == 3:
-        array[0, :, pad:array.shape[2] - pad] = 0
+        array[0, :, 1:array.shape[2] - 1] = 0
     else:
         array[0] = 0

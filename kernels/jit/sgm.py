@@ -45,11 +45,15 @@ anyway, as it takes the sentinel's.  The winners are taken among the D only.
 A narrowed variant ("banded") searches K slots a pixel, slot k of pixel p holding
 d = dmin + starts[p] + k: the cost slab is (B, W, K), and a path meets p - r's slots
 of d and d -/+ 1, shift = starts[p] - starts[p - r] slots away; a d that p - r did not
-search has no L, as one beyond the range.  Its states are (2, W, K +
-2 * pad), pad = K + 2, the values in the middle K and sentinels in the pads, so that a
-shift clipped to +-(K + 1) reads only sentinels where p - r did not search: a view
-shifted by it is path_step's ``before``, unchanged.  Its sentinel is above every
-min_j L + P2, so that a d without L is as one beyond the range (kernels/sgm.py).
+search has no L, as one beyond the range.  Its states are (2, W, K + 2) as a
+whole-range pass's; where p - r searched other slots (shift not 0: on a KITTI pair 4 to
+7 pixels in a hundred), its state is first moved in place (each state is read by one
+pixel), each value to the slot of the same d and a sentinel where p - r has none
+(meet), and path_step reads it unchanged.  (States padded by K + 2 sentinels each side
+and read through a shifted view moved nothing, but were three times the size: a
+KITTI pair's two steps at one thread took 29-30 and 34-35 ms against 24-26 and 32-33
+with states of K + 2.)  Its sentinel is above every min_j L + P2, so that a d without L is as one
+beyond the range (kernels/sgm.py).
 """
 
 import numpy as np
@@ -97,6 +101,7 @@ def spec(cost, pixels, costs, accumulator, negative=False, banded=False):
               arg("state", acc, 3), arg("mins", acc, 2),  # (2, W, D + 2), (2, W)
               arg("other", acc, 3), arg("other_mins", acc, 2),  # a diagonal's partner
               arg("line", acc, 2),  # (2, D + 2) a horizontal path's scratch
+              arg("moved", acc, 1),  # (D + 2,) meet's scratch (a whole-range pass: (1,))
               arg("right_best", acc, 1), arg("right_d", i16, 1),  # (W + s,) scratch
               arg("disp", i32, 2), arg("min_cost", i64, 2),  # (H, W) out
               arg("second", i64, 2), arg("prev", i64, 2), arg("next", i64, 2),  # extras
@@ -311,7 +316,7 @@ def _make(cost, cost_type, acc, negative, banded):
 
     @njit(**SERIAL)
     def cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, row_costs, spans,
-                  starts, sums, state, mins, sc, stop):
+                  starts, sums, state, mins, moved, sc, stop):
         """costs[y - band_y0, x, k] = C(y, x, dmin + k) for rows y0 <= y < y1: column
         sums moved down the rows, row sums slid along each row (kernels/jit/fast.py).
         Pixels x0 <= x < x1 only (their columns' sums: w - 1 more).  Each row's step of
@@ -359,8 +364,8 @@ def _make(cost, cost_type, acc, negative, banded):
                         c[k] = cmax if k < real else pad_cost
                 if banded:
                     gather(out, costs[y - band_y0], starts[y], x0, x1)
-                vertical_row(costs, sums, state, mins, starts, i, y, direction, band_y0,
-                             x0, x1, add, p1, p2, never)
+                vertical_row(costs, sums, state, mins, starts, moved, i, y, direction,
+                             band_y0, x0, x1, add, p1, p2, never)
             vertical_end(state, mins, y1 - y0, x0, x1)
             return 0
         tile = sc[SC.tile_rows] if banded else max(y1 - y0, 1)
@@ -402,7 +407,7 @@ def _make(cost, cost_type, acc, negative, banded):
                 if banded:
                     band_row(col_sums, row_sums, costs[y - band_y0], starts[y], w, dmin,
                              cmax, x0, x1, next_costs, next_sums, costs_too, sums_too)
-                    vertical_row(costs, sums, state, mins, starts, i, y, direction,
+                    vertical_row(costs, sums, state, mins, starts, moved, i, y, direction,
                                  band_y0, x0, x1, add, p1, p2, never)
                     continue
                 row_sums[:] = 0
@@ -426,8 +431,8 @@ def _make(cost, cost_type, acc, negative, banded):
                         row_sums[k] = v
                         c[k] = cost_type(v) if lo <= k < n else \
                             (cmax if k < real else pad_cost)
-                vertical_row(costs, sums, state, mins, starts, i, y, direction, band_y0,
-                             x0, x1, add, p1, p2, never)
+                vertical_row(costs, sums, state, mins, starts, moved, i, y, direction,
+                             band_y0, x0, x1, add, p1, p2, never)
         vertical_end(state, mins, y1 - y0, x0, x1)
         return 0
 
@@ -488,24 +493,44 @@ def _make(cost, cost_type, acc, negative, banded):
         least total at its smallest k."""
         return np.uint32((np.uint32(total) << np.uint32(16)) | np.uint32(k))
 
-    @njit(**INLINE)
-    def pad_of(slots):
-        """The sentinels each side of a path state's ``slots`` values (see above; the
-        driver's kernels/sgm.py:pad_of)."""
-        return slots + 2 if banded else 1
-
     @njit(**SERIAL)
-    def fresh(state, pad):
+    def fresh(state):
         """A path's state before its first pixel: zeros between the sentinels."""
-        for k in range(pad, state.shape[0] - pad):
+        for k in range(1, state.shape[0] - 1):
             state[k] = 0
 
+    @njit(**SERIAL)
+    def meet(state, shift, moved):
+        """A banded variant's path state of the pixel before, (K + 2,), made to meet
+        this pixel's slots, in place (path_step's ``before`` then): [1 + k], -1 <= k <=
+        K, takes its slot k + shift's value, the same d, or the sentinel where that is
+        none of its slots (so [0] and [K + 1] may hold values: see restore).  moved, (K +
+        2,), scratch: through it each loop reads one array and writes another, which
+        LLVM vectorises (in place, overlapping views ran one value at a time).  The
+        loops index views from 0: an index Numba can't prove non-negative is tested for
+        wraparound at every access."""
+        size = state.shape[0]
+        big = state[0]  # between steps every state's ends hold the sentinel
+        for i in range(size):
+            moved[i] = state[i]
+        # [i] takes [i + shift] where that is a slot, 1 <= i + shift <= K: lo <= i < hi
+        lo = min(max(1 - shift, 0), size)
+        hi = max(min(size - 1 - shift, size), lo)
+        for i in range(lo):
+            state[i] = big
+        source, target = moved[lo + shift:], state[lo:]
+        for i in range(hi - lo):
+            target[i] = source[i]
+        rest = state[hi:]
+        for i in range(size - hi):
+            rest[i] = big
+
     @njit(**INLINE)
-    def shifted(state, shift, slots, pad):
-        """The view of a path state whose [1 + k] holds slot k + shift (a sentinel where
-        that is not a slot): path_step's ``before``; shift 0, ``after``."""
-        shift = max(min(shift, slots + 1), -(slots + 1))
-        return state[pad - 1 + shift:pad + slots + 1 + shift]
+    def restore(state, big):
+        """A met state's ends back to the sentinel, once its step has read it: the
+        buffer takes a later pixel's values between them."""
+        state[0] = big
+        state[state.shape[0] - 1] = big
 
     @njit(**INLINE)
     def path_start(cost, after, never):
@@ -536,33 +561,41 @@ def _make(cost, cost_type, acc, negative, banded):
         mins[0, x] = mins[1, x]
 
     @njit(**SERIAL)
-    def vertical_row(costs, sums, state, mins, starts, i, y, direction, band_y0, x0, x1,
-                     add, p1, p2, never):
+    def vertical_row(costs, sums, state, mins, starts, moved, i, y, direction, band_y0, x0,
+                     x1, add, p1, p2, never):
         """Image row y's step of a vertical path down (direction 1) or up (-1), the i-th
         of its run (buffer i % 2 holds the row before, 1 - i % 2 takes this one), columns
         x0 <= x < x1; adds into sums (add 0: assigns, 2: leaves them, for the state
         alone).  Numba compiles a function again for each set of constants it is called
         with, so the costs step passes int64s, as vertical does: one compile for both."""
         down = direction > 0
-        slots = costs.shape[2]
-        pad = pad_of(slots)
         before, after = i % 2, 1 - i % 2
         row = costs[y - band_y0]
         band_sums = sums[y - band_y0] if add < 2 else sums[0]
-        if banded:
-            y_before = y - 1 if down else y + 1  # none: a fresh state, no shift
-            has_before = 0 <= y_before < starts.shape[0]
+        y_before = y - 1 if down else y + 1  # none: a fresh state, no shift
+        shifts = banded and 0 <= y_before < starts.shape[0] and x0 < x1
+        here = there = starts[0]
+        big = never
+        if shifts:
+            here, there = starts[y], starts[y_before]
+            # The sentinel, from a state of this call's own columns (another thread's
+            # may be met meanwhile).
+            big = state[before, x0, 0]
+            # The states that meet other slots, in passes of their own before and after
+            # the steps: their loop then has no call in it (with one, a KITTI pair's
+            # costs step took 1-1.5 ms more at one thread: the vector registers are
+            # saved around a call).
             for x in range(x0, x1):
-                shift = starts[y, x] - starts[y_before, x] if has_before else 0
-                mins[after, x] = path_step_into(
-                    shifted(state[before, x], shift, slots, pad), mins[before, x],
-                    row[x], shifted(state[after, x], 0, slots, pad), band_sums[x], add,
-                    p1, p2, never)
-            return
+                if here[x] != there[x]:
+                    meet(state[before, x], here[x] - there[x], moved)
         for x in range(x0, x1):
             mins[after, x] = path_step_into(state[before, x], mins[before, x], row[x],
                                             state[after, x], band_sums[x], add, p1, p2,
                                             never)
+        if shifts:
+            for x in range(x0, x1):
+                if here[x] != there[x]:
+                    restore(state[before, x], big)
 
     @njit(**SERIAL)
     def vertical_end(state, mins, rows, x0, x1):
@@ -573,7 +606,7 @@ def _make(cost, cost_type, acc, negative, banded):
                 copy_state(state, mins, x)
 
     @njit(**SERIAL)
-    def vertical(costs, sums, state, mins, starts, sc, stop):
+    def vertical(costs, sums, state, mins, starts, moved, sc, stop):
         """The vertical path down (direction 1) or up (-1) over the band's rows y0 <=
         y < y1 (image rows; the slabs start at band_y0), columns x0 <= x < x1, from the
         state the band's neighbour left (fresh where y0 is the image's first row going
@@ -588,13 +621,13 @@ def _make(cost, cost_type, acc, negative, banded):
             if stop_requested(stop):
                 return 0
             y = y0 + i if down else y1 - 1 - i
-            vertical_row(costs, sums, state, mins, starts, i, y, sc[SC.direction], band_y0,
-                         x0, x1, add, p1, p2, never)
+            vertical_row(costs, sums, state, mins, starts, moved, i, y, sc[SC.direction],
+                         band_y0, x0, x1, add, p1, p2, never)
         vertical_end(state, mins, rows, x0, x1)
         return 0
 
     @njit(**SERIAL)
-    def diagonal(costs, sums, state, mins, other, other_mins, starts, sc, stop):
+    def diagonal(costs, sums, state, mins, other, other_mins, starts, moved, sc, stop):
         """The two diagonal paths going down (direction 1: from up-left and up-right)
         or up (-1: from down-left and down-right) over the band's rows, every column:
         state for the path coming from the left (x - 1), other for the one from the
@@ -602,8 +635,7 @@ def _make(cost, cost_type, acc, negative, banded):
         p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
         y0, y1, band_y0, add = sc[SC.y0], sc[SC.y1], sc[SC.band_y0], sc[SC.add]
         down = sc[SC.direction] > 0
-        width, slots = costs.shape[1], costs.shape[2]
-        pad = pad_of(slots)
+        width = costs.shape[1]
         rows = y1 - y0
         for i in range(rows):
             if stop_requested(stop):
@@ -612,28 +644,44 @@ def _make(cost, cost_type, acc, negative, banded):
             before, after = i % 2, 1 - i % 2
             row = costs[y - band_y0]
             y_before = y - 1 if down else y + 1
-            has_before = banded and 0 <= y_before < starts.shape[0]
+            shifts = banded and 0 <= y_before < starts.shape[0]
+            now = then = starts[0]
+            big = state[before, 0, 0]
+            if shifts:
+                now, then = starts[y], starts[y_before]
+                # As vertical_row: the states that meet other slots, before and after
+                # the steps.  Each is read by one pixel: x - 1's by x on the path from
+                # the left, x + 1's by x on the one from the right.
+                for x in range(1, width):
+                    if now[x] != then[x - 1]:
+                        meet(state[before, x - 1], now[x] - then[x - 1], moved)
+                for x in range(width - 1):
+                    if now[x] != then[x + 1]:
+                        meet(other[before, x + 1], now[x] - then[x + 1], moved)
             for x in range(width):
-                here = shifted(state[after, x], 0, slots, pad)
-                there = shifted(other[after, x], 0, slots, pad)
+                here, there = state[after, x], other[after, x]
                 if x == 0:
                     mins[after, x] = path_start(row[x], here, never)
                 else:
-                    shift = starts[y, x] - starts[y_before, x - 1] if has_before else 0
-                    mins[after, x] = path_step(
-                        shifted(state[before, x - 1], shift, slots, pad),
-                        mins[before, x - 1], row[x], here, p1, p2, never)
+                    mins[after, x] = path_step(state[before, x - 1], mins[before, x - 1],
+                                               row[x], here, p1, p2, never)
                 if x == width - 1:
                     other_mins[after, x] = path_start(row[x], there, never)
                 else:
-                    shift = starts[y, x] - starts[y_before, x + 1] if has_before else 0
-                    other_mins[after, x] = path_step(
-                        shifted(other[before, x + 1], shift, slots, pad),
-                        other_mins[before, x + 1], row[x], there, p1, p2, never)
+                    other_mins[after, x] = path_step(other[before, x + 1],
+                                                     other_mins[before, x + 1], row[x],
+                                                     there, p1, p2, never)
                 if add < 2:
                     s = sums[y - band_y0, x]
                     add_into(s, here, add)
                     add_into(s, there, 1)
+            if shifts:
+                for x in range(1, width):
+                    if now[x] != then[x - 1]:
+                        restore(state[before, x - 1], big)
+                for x in range(width - 1):
+                    if now[x] != then[x + 1]:
+                        restore(other[before, x + 1], big)
         if rows % 2:
             for x in range(width):
                 copy_state(state, mins, x)
@@ -641,7 +689,7 @@ def _make(cost, cost_type, acc, negative, banded):
         return 0
 
     @njit(**SERIAL)
-    def select_rows(costs, sums, line, right_best_rev, right_rev_d, disp, min_cost,
+    def select_rows(costs, sums, line, moved, right_best_rev, right_rev_d, disp, min_cost,
                     second, prev, nxt, right_disp, lr_valid, starts, state, mins, sc,
                     stop):
         """For rows y0 <= y < y1: the path from the right added into the row's sums,
@@ -660,7 +708,7 @@ def _make(cost, cost_type, acc, negative, banded):
         track_right = keep_right != 0 or lr_limit >= 0
         width, ndisp = costs.shape[1], costs.shape[2]
         real = sc[SC.slots]  # the candidates' slots: a whole-range pass pads past them
-        pad = pad_of(ndisp)
+        big = line[0, 0]  # the sentinel, at both ends of the lines' states
         shift = -dmin if negative else 0
         keyed = sc[SC.keyed] != 0
         fused = sc[SC.fused]
@@ -672,15 +720,15 @@ def _make(cost, cost_type, acc, negative, banded):
             # Constants (its own compile, the path's adding step alone in it): with
             # int64s here the winners step took 7% longer.
             if going_up:
-                vertical_row(costs, sums, state, mins, starts, i_row, y, -1, band_y0, 0,
-                             width, 1, p1, p2, never)
+                vertical_row(costs, sums, state, mins, starts, moved, i_row, y, -1, band_y0,
+                             0, width, 1, p1, p2, never)
             elif fused:
-                vertical_row(costs, sums, state, mins, starts, i_row, y, 1, band_y0, 0,
-                             width, 1, p1, p2, never)
+                vertical_row(costs, sums, state, mins, starts, moved, i_row, y, 1, band_y0,
+                             0, width, 1, p1, p2, never)
             row, total = costs[y - band_y0], sums[y - band_y0]
             # A path starts from a state of zeros with least 0: its first values are
             # then the costs themselves (min(0, P1, P2) = 0), with no branch.
-            fresh(line[1], pad)
+            fresh(line[1])
             least = acc(0)
             # Two pixels a turn, the states' roles fixed in each (line[j] takes this
             # pixel's, line[1 - j] holds the one before) rather than line[i % 2]: the
@@ -694,17 +742,19 @@ def _make(cost, cost_type, acc, negative, banded):
                         break
                     x = width - 1 - i
                     b, a = line[1 - j], line[j]
-                    if banded:
-                        moved = starts[y, x] - starts[y, x + 1] if i > 0 else 0
-                        b, a = shifted(b, moved, ndisp, pad), shifted(a, 0, ndisp, pad)
+                    shift_here = starts[y, x] - starts[y, x + 1] if banded and i > 0 else 0
+                    if shift_here != 0:
+                        meet(b, shift_here, moved)
                     if x >= AHEAD:  # this path walks memory downwards: see prefetch
                         ask_to_read(row, total, x - AHEAD)
                     least = path_step_into(b, least, row[x], a, total[x], 1, p1, p2, never)
+                    if shift_here != 0:
+                        restore(b, big)
             if track_right:
                 right_best_rev[:] = never
                 right_rev_d[:] = -1
             out_disp, out_cost = disp[y], min_cost[y]
-            fresh(line[1], pad)
+            fresh(line[1])
             least = acc(0)
             # The next row's costs and sums come from memory (fused, its step of the
             # vertical path reads them first): asked for here, where the work waits on
@@ -720,10 +770,12 @@ def _make(cost, cost_type, acc, negative, banded):
                     ask_to_read(next_costs, next_sums, x)
                 a, b = line[after], line[before]
                 start = 0
+                shift_here = 0
                 if banded:
                     start = starts[y, x]
-                    moved = start - starts[y, x - 1] if x > 0 else 0
-                    b, a = shifted(b, moved, ndisp, pad), shifted(a, 0, ndisp, pad)
+                    shift_here = start - starts[y, x - 1] if x > 0 else 0
+                    if shift_here != 0:
+                        meet(b, shift_here, moved)
                 c = row[x]
                 first_d = dmin + start
                 n = max(min(real, x - first_d + 1), 0)
@@ -761,6 +813,8 @@ def _make(cost, cost_type, acc, negative, banded):
                     for k in range(lo, n):
                         first = min(first, np.int16(k) if t[k] == best else none)
                 least = next_least
+                if shift_here != 0:
+                    restore(b, big)
                 if n <= lo:
                     out_disp[x] = invalid
                     out_cost[x] = -1
@@ -817,17 +871,19 @@ def _make(cost, cost_type, acc, negative, banded):
 
     @njit(**SERIAL)
     def worker(left_p, right_rev, costs, sums, col_sums, row_sums, ring, row_costs, spans,
-               state, mins, other, other_mins, line, right_best, right_d, disp, min_cost,
-               second, prev, nxt, right_disp, lr_valid, starts, stop, sc):
+               state, mins, other, other_mins, line, moved, right_best, right_d, disp,
+               min_cost, second, prev, nxt, right_disp, lr_valid, starts, stop, sc):
         step = sc[SC.step]
         if step == COSTS:
             return cost_rows(left_p, right_rev, costs, col_sums, row_sums, ring, row_costs,
-                             spans, starts, sums, state, mins, sc, stop)
+                             spans, starts, sums, state, mins, moved, sc, stop)
         if step == VERTICAL:
-            return vertical(costs, sums, state, mins, starts, sc, stop)
+            return vertical(costs, sums, state, mins, starts, moved, sc, stop)
         if step == DIAGONAL:
-            return diagonal(costs, sums, state, mins, other, other_mins, starts, sc, stop)
-        return select_rows(costs, sums, line, right_best, right_d, disp, min_cost, second,
-                           prev, nxt, right_disp, lr_valid, starts, state, mins, sc, stop)
+            return diagonal(costs, sums, state, mins, other, other_mins, starts, moved, sc,
+                            stop)
+        return select_rows(costs, sums, line, moved, right_best, right_d, disp, min_cost,
+                           second, prev, nxt, right_disp, lr_valid, starts, state, mins, sc,
+                           stop)
 
     return worker
