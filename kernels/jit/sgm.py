@@ -658,17 +658,24 @@ def _make(cost, cost_type, acc, negative, banded):
                 for x in range(width - 1):
                     if now[x] != then[x + 1]:
                         meet(other[before, x + 1], now[x] - then[x + 1], moved)
+            # The states' rows as slices of themselves: so written, LLVM compiles this
+            # loop to a third of the time it takes over the rows as they are (a KITTI
+            # pair's half-size diagonal step: 4.1 ms against 11.7; the vertical step's
+            # loop goes the other way).
+            size = costs.shape[2] + 2
             for x in range(width):
-                here, there = state[after, x], other[after, x]
+                here = state[after, x][0:size]
+                there = other[after, x][0:size]
                 if x == 0:
                     mins[after, x] = path_start(row[x], here, never)
                 else:
-                    mins[after, x] = path_step(state[before, x - 1], mins[before, x - 1],
-                                               row[x], here, p1, p2, never)
+                    mins[after, x] = path_step(state[before, x - 1][0:size],
+                                               mins[before, x - 1], row[x], here, p1, p2,
+                                               never)
                 if x == width - 1:
                     other_mins[after, x] = path_start(row[x], there, never)
                 else:
-                    other_mins[after, x] = path_step(other[before, x + 1],
+                    other_mins[after, x] = path_step(other[before, x + 1][0:size],
                                                      other_mins[before, x + 1], row[x],
                                                      there, p1, p2, never)
                 if add < 2:
