@@ -532,6 +532,24 @@ def _make(cost, cost_type, acc, negative, banded):
         state[0] = big
         state[state.shape[0] - 1] = big
 
+    @njit(**SERIAL)
+    def meet_row(states, here, there, offset, x0, x1, moved):
+        """meet, for pixels x0 <= x < x1 of a row, each the state states[x + offset] of
+        the row before's that its path reads, where their starts differ (here[x], the
+        pixel's; there[x + offset], that pixel's).  In a pass of its own before the
+        steps: with a call in the steps' loop, a KITTI pair's costs step took 1-1.5 ms
+        more at one thread (the vector registers are saved around a call)."""
+        for x in range(x0, x1):
+            if here[x] != there[x + offset]:
+                meet(states[x + offset], here[x] - there[x + offset], moved)
+
+    @njit(**SERIAL)
+    def restore_row(states, here, there, offset, x0, x1, big):
+        """restore, after the steps, every state meet_row met (the same arguments)."""
+        for x in range(x0, x1):
+            if here[x] != there[x + offset]:
+                restore(states[x + offset], big)
+
     @njit(**INLINE)
     def path_start(cost, after, never):
         """A path's first pixel: after[1 + k] = C(p, k); returns its minimum."""
@@ -574,28 +592,17 @@ def _make(cost, cost_type, acc, negative, banded):
         band_sums = sums[y - band_y0] if add < 2 else sums[0]
         y_before = y - 1 if down else y + 1  # none: a fresh state, no shift
         shifts = banded and 0 <= y_before < starts.shape[0] and x0 < x1
-        here = there = starts[0]
-        big = never
+        # The sentinel, from a state of this call's own columns (another thread's may be
+        # met meanwhile).
+        big = state[before, x0, 0] if shifts else never
         if shifts:
-            here, there = starts[y], starts[y_before]
-            # The sentinel, from a state of this call's own columns (another thread's
-            # may be met meanwhile).
-            big = state[before, x0, 0]
-            # The states that meet other slots, in passes of their own before and after
-            # the steps: their loop then has no call in it (with one, a KITTI pair's
-            # costs step took 1-1.5 ms more at one thread: the vector registers are
-            # saved around a call).
-            for x in range(x0, x1):
-                if here[x] != there[x]:
-                    meet(state[before, x], here[x] - there[x], moved)
+            meet_row(state[before], starts[y], starts[y_before], 0, x0, x1, moved)
         for x in range(x0, x1):
             mins[after, x] = path_step_into(state[before, x], mins[before, x], row[x],
                                             state[after, x], band_sums[x], add, p1, p2,
                                             never)
         if shifts:
-            for x in range(x0, x1):
-                if here[x] != there[x]:
-                    restore(state[before, x], big)
+            restore_row(state[before], starts[y], starts[y_before], 0, x0, x1, big)
 
     @njit(**SERIAL)
     def vertical_end(state, mins, rows, x0, x1):
@@ -645,19 +652,12 @@ def _make(cost, cost_type, acc, negative, banded):
             row = costs[y - band_y0]
             y_before = y - 1 if down else y + 1
             shifts = banded and 0 <= y_before < starts.shape[0]
-            now = then = starts[0]
             big = state[before, 0, 0]
             if shifts:
-                now, then = starts[y], starts[y_before]
-                # As vertical_row: the states that meet other slots, before and after
-                # the steps.  Each is read by one pixel: x - 1's by x on the path from
-                # the left, x + 1's by x on the one from the right.
-                for x in range(1, width):
-                    if now[x] != then[x - 1]:
-                        meet(state[before, x - 1], now[x] - then[x - 1], moved)
-                for x in range(width - 1):
-                    if now[x] != then[x + 1]:
-                        meet(other[before, x + 1], now[x] - then[x + 1], moved)
+                # Each state is read by one pixel: x - 1's by x on the path from the
+                # left, x + 1's by x on the one from the right.
+                meet_row(state[before], starts[y], starts[y_before], -1, 1, width, moved)
+                meet_row(other[before], starts[y], starts[y_before], 1, 0, width - 1, moved)
             # The states' rows as slices of themselves: so written, LLVM compiles this
             # loop to a third of the time it takes over the rows as they are (a KITTI
             # pair's half-size diagonal step: 4.1 ms against 11.7; the vertical step's
@@ -683,12 +683,9 @@ def _make(cost, cost_type, acc, negative, banded):
                     add_into(s, here, add)
                     add_into(s, there, 1)
             if shifts:
-                for x in range(1, width):
-                    if now[x] != then[x - 1]:
-                        restore(state[before, x - 1], big)
-                for x in range(width - 1):
-                    if now[x] != then[x + 1]:
-                        restore(other[before, x + 1], big)
+                restore_row(state[before], starts[y], starts[y_before], -1, 1, width, big)
+                restore_row(other[before], starts[y], starts[y_before], 1, 0, width - 1,
+                            big)
         if rows % 2:
             for x in range(width):
                 copy_state(state, mins, x)
