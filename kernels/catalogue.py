@@ -145,6 +145,17 @@ def cost_type(cmax, acc):
     return np.dtype(np.uint8) if cmax <= 255 else acc
 
 
+def aggregated_max(cost, compared, bits, window):
+    """c_max, the largest cost a semi-global match aggregates (a Cost, its compared type,
+    a census code's bits or None, the window's side): the largest window cost, but for a
+    Hamming cost whose largest lies in 256..510, 255, every cost above it truncated to it.
+    Its slab then holds bytes (cost_type), half the costs' memory traffic: a KITTI
+    match took 6% less time.  Only costs worse than half the bits differing change:
+    worse than two unrelated patches', which differ in half their bits."""
+    largest = cost.per_pixel(compared, bits) * window * window
+    return 255 if cost.worker == "shd" and 255 < largest <= 510 else largest
+
+
 def _sgm_variant(cost, pixels, cmax, acc, dmin=0, banded=False):
     """cost: a cost code; pixels: the compared type; cmax: its largest window cost;
     acc: its accumulator type."""
@@ -159,7 +170,7 @@ def _sgm_variants(largest_window, largest_penalty=10**7):
     for cost in COSTS_TABLE:
         for (compared, bits), window in itertools.product(
                 _compared(cost), range(1, largest_window + 1, 2)):
-            cmax = cost.per_pixel(compared, bits) * window * window
+            cmax = aggregated_max(cost, compared, bits, window)
             for p2, paths, banded in itertools.product((0, cmax, largest_penalty), PATHS,
                                                        (False, True)):
                 try:
@@ -300,7 +311,7 @@ def sgm_entries(cost, pixels, window, dmin, paths, p1, p2, census_window=None,
     if cost.census:
         compared = census_dtype(census_window, census_pattern)
         bits = census_bits(census_window, census_pattern)
-    cmax = cost.per_pixel(compared, bits) * window * window
+    cmax = aggregated_max(cost, compared, bits, window)
     acc = accumulator(cmax, p1, p2, paths, banded)
     return census_entries(cost.name, pixels, census_window, census_pattern) + \
         [entry("sgm", cost.code, compared, cmax, acc, dmin, banded)]

@@ -42,7 +42,7 @@ import math
 import numpy as np
 
 from . import native, runtime
-from .catalogue import PATHS, accumulator, cost_type, entry, sentinel
+from .catalogue import PATHS, accumulator, aggregated_max, cost_type, entry, sentinel
 from .census import census_pair
 from .contract import (
     CENSUS,
@@ -251,7 +251,7 @@ def match_sgm(left, right, *, window, dmin, dmax, cost, paths, p1, p2,
         right_rev = pad_edge(right[:, ::-1], h, right.dtype, out=np.empty(shape, right.dtype))
     if shift:
         right_rev = np.ascontiguousarray(np.pad(right_rev, ((0, 0), (shift, 0)), mode="edge"))
-    cmax = cost_coded(s.cost).per_pixel(left_p.dtype, bits) * s.window * s.window
+    cmax = aggregated_max(cost_coded(s.cost), left_p.dtype, bits, s.window)
     acc = accumulator(cmax, p1, p2, paths, banded)
     run = native.entry(*entry("sgm", s.cost, left_p.dtype, cmax, acc, s.dmin, banded))
     slots_searched = ndisp

@@ -296,7 +296,8 @@ SGM_PATHS = {4: ((0, 1), (0, -1), (1, 0), (-1, 0)),
 def sgm_volume(left, right, window, dmin, dmax, cost, census_window=5,
                census_pattern="dense", starts=None, band=None):
     """C (H, W, D) as Python-int-exact int64: the contract's window cost where the right
-    pixel x - d is in the image, else the largest cost a window can have.  With
+    pixel x - d is in the image, else the largest cost a window can have; Hamming
+    costs whose largest lies in 256..510 truncated to 255.  With
     ``starts`` (H, W) and ``band`` K: C (H, W, K), slot k of pixel p holding
     d = dmin + starts[p] + k (a narrowed search: every d stays within dmin..dmax)."""
     pixels = np.asarray(left).dtype
@@ -313,6 +314,8 @@ def sgm_volume(left, right, window, dmin, dmax, cost, census_window=5,
         top = int(np.iinfo(pixels).max)
         per_pixel = {"sad": top, "ssd": top * top, "shd": np.iinfo(pixels).bits}[cost]
     cmax = per_pixel * window * window
+    if cost in ("census", "shd") and 255 < cmax <= 510:
+        cmax = 255  # Hamming costs truncated to a byte (docs/engines.md, "Costs")
     height, width = left.shape
     slots = dmax - dmin + 1 if starts is None else band
     volume = np.full((height, width, slots), cmax, np.int64)
@@ -324,7 +327,7 @@ def sgm_volume(left, right, window, dmin, dmax, cost, census_window=5,
             inside = [d for d in ds if 0 <= x - d <= width - 1]
             for d, c in zip(inside, window_costs(left, right, y, x, inside, window, cost),
                             strict=True):
-                volume[y, x, d - first] = c
+                volume[y, x, d - first] = min(c, cmax)
     return volume
 
 

@@ -279,6 +279,7 @@ def _make(cost, cost_type, acc, negative, banded):
         ask_to_write says."""
         width, slots = out.shape
         ndisp = col_sums.shape[1]
+        cap = acc(cmax)  # costs above c_max are truncated to it (catalogue.aggregated_max)
         previous = -1
         for x in range(x0, x1):
             ask_to_write(next_costs, next_sums, x, costs_too, sums_too)
@@ -309,7 +310,7 @@ def _make(cost, cost_type, acc, negative, banded):
             # prove non-negative is tested for wraparound at every access.
             source, target = row_sums[head:], c[head:]
             for k in range(tail - head):
-                target[k] = cost_type(source[k])
+                target[k] = cost_type(min(source[k], cap))
             beyond = c[tail:]
             for k in range(slots - tail):
                 beyond[k] = cmax
@@ -337,6 +338,7 @@ def _make(cost, cost_type, acc, negative, banded):
         # its real disparities are the first ``slots``, the others cost pad_cost.
         real = ndisp if banded else sc[SC.slots]
         pad_cost = cost_type(sc[SC.pad_cost])
+        cap = acc(sc[SC.cmax])  # costs above c_max are truncated to it (aggregated_max)
         add = sc[SC.add]
         p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
         x0, x1 = sc[SC.x0], sc[SC.x1]
@@ -429,7 +431,7 @@ def _make(cost, cost_type, acc, negative, banded):
                     for k in range(ndisp):
                         v = acc(row_sums[k] + entering[k] - sub[k] * keep)
                         row_sums[k] = v
-                        c[k] = cost_type(v) if lo <= k < n else \
+                        c[k] = cost_type(min(v, cap)) if lo <= k < n else \
                             (cmax if k < real else pad_cost)
                 vertical_row(costs, sums, state, mins, starts, moved, i, y, direction,
                              band_y0, x0, x1, add, p1, p2, never)

@@ -10,6 +10,7 @@ from csw import kernels
 from csw.kernels import native, sgm
 from csw.kernels.jit.sgm import SC
 from oracle import census, lr_consistent, sgm_match
+from oracle import sgm_volume as oracle_volume
 
 CENSUS = dict(census_window=3, census_pattern="dense")
 
@@ -172,6 +173,26 @@ def test_narrowed_search_every_cost_window_and_path_count(cost, window, paths):
         starts = random_starts(rng, left.shape, dmax - dmin + 1, slots)
         assert_equals_oracle(left, right, window=window, dmin=dmin, dmax=dmax, cost=cost,
                              paths=paths, p1=p1, p2=p2, starts=starts, slots=slots)
+
+
+@pytest.mark.parametrize("cost", ["shd", "census"])
+@pytest.mark.parametrize("paths", [4, 8])
+@pytest.mark.parametrize("threads", [1, pytest.param(2, marks=pytest.mark.two_cores)])
+def test_hamming_costs_above_a_byte_are_truncated(cost, paths, threads, monkeypatch):
+    """A 7x7 window of 8-bit codes costs up to 392: costs above 255 are truncated to 255
+    and the slab holds bytes, in the whole search and the narrowed one.  The right image
+    is the left one inverted, so that many costs are above 255."""
+    monkeypatch.setattr(sgm, "STEP_DIRECT_WORK", 0)
+    rng = np.random.default_rng(7 + paths + threads)
+    left, right = pair(rng, 12, 18, noise=0)
+    right = 255 - right
+    p1, p2 = sgm.default_penalties(cost, 7, 8)
+    kw = dict(window=7, cost=cost, paths=paths, p1=p1, p2=p2, threads=threads)
+    volume = oracle_volume(left, right, 7, 0, 5, cost, **CENSUS)
+    assert volume.max() == 255 and (volume == 255).mean() > 0.2  # truncation exercised
+    assert_equals_oracle(left, right, dmin=0, dmax=5, **kw)
+    starts = random_starts(rng, left.shape, 8, 3)
+    assert_equals_oracle(left, right, dmin=0, dmax=7, starts=starts, slots=3, **kw)
 
 
 @pytest.mark.parametrize("paths", [4, 8])
