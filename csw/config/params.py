@@ -439,8 +439,8 @@ def csw_margin_for(cost, given=None):
 
 
 def check_csw_use(csw, given):
-    """Refuse an option that would do nothing: tau or the margin without CSW."""
-    for name in ("tau", "csw_margin"):
+    """Refuse an option that would do nothing: the rule, tau or the margin without CSW."""
+    for name in ("csw_rule", "tau", "csw_margin"):
         if not csw and given.get(name) is not None:
             raise OptionError(name, f"{name} applies only with CSW on; add csw=True (--csw) "
                                     f"or drop {name}")

@@ -220,6 +220,7 @@ def test_16_bit_colour_keeps_its_precision(tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--tau", "100"], "only with CSW"),
+    (["--csw-rule", "unique"], "csw_rule applies only with CSW"),
     (["--csw", "--tau", "-5"], ">= 0"),
 ])
 def test_options_that_would_do_nothing_are_refused(pair_files, tmp_path, args, message):

@@ -73,6 +73,7 @@ def test_colour_and_paths_are_converted_like_the_cli(small_scene, pair_files, tm
 
 @pytest.mark.parametrize("kwargs, message", [
     (dict(tau=100), "only with CSW"),
+    (dict(csw_rule="unique"), "only with CSW"),
     (dict(csw=True, tau=-5), ">= 0"),
     (dict(csw=True, tau="sometimes"), "not a number"),
     (dict(engine="gpu"), "engine must be one of"),
