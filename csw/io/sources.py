@@ -37,11 +37,12 @@ from .images import (
 )
 
 
-def open_source(image, name="image", probe=True, striped=False):
+def open_source(image, name="image", probe=True, striped=False, stripes=False):
     """A row source for a path or an array; ImageError, one line, when unusable.  The
     file is checked now (header, the pixel limit, pixel type, and with ``probe`` one row
     decoded) so that a bad input fails before any work.  striped: the caller matches in
-    stripes under a memory limit the user gave (see csw.io.images.check_pixels)."""
+    stripes under a memory limit the user gave; stripes: it could (see
+    csw.io.images.check_pixels)."""
     if isinstance(image, (str, Path)):
         path = Path(image)
         safety.protect(path)
@@ -58,7 +59,7 @@ def open_source(image, name="image", probe=True, striped=False):
         if min(source.shape) < 1:
             raise ImageError(f"{path}: the image is empty ({source.shape[1]}x"
                              f"{source.shape[0]})")
-        check_pixels(source.shape, path, striped)
+        check_pixels(source.shape, path, striped, stripes)
     else:
         source = ArraySource(image, name)
     if probe:

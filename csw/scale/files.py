@@ -88,7 +88,8 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     config = resolved(config, options, "match_files")
     _check_rig_options(rig, calib, frame)
     try:
-        shape = open_source(left, "left", probe=False, striped=memory_limit is not None).shape
+        shape = open_source(left, "left", probe=False, striped=memory_limit is not None,
+                            stripes=True).shape
     except ImageError as exc:
         exc.option = "left"
         raise

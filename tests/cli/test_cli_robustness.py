@@ -205,6 +205,10 @@ def test_an_image_over_the_pixel_limit_says_so(tmp_path, pair_files):
     result = invoke("match", tmp_path / "big.png", pair_files[1], "-o", tmp_path / "d.pfm")
     assert result.exit_code == 2 and one_line_error(result)
     assert "safety limit" in result.output and "CSW_MAX_PIXELS" in result.output
+    assert "--memory-limit" in result.output  # a pair's match can go in stripes
+    result = invoke("hist", tmp_path / "big.png", pair_files[1])  # hist can't
+    assert result.exit_code == 2 and one_line_error(result)
+    assert "safety limit" in result.output and "memory-limit" not in result.output
 
 
 def test_16_bit_colour_keeps_its_precision(tmp_path):
