@@ -421,11 +421,11 @@ def resolve(**given):
             raise ValueError(f"the paper preset is the paper's raw method; drop "
                              f"{', '.join(added)} (or use another preset)")
     opts = {**DEFAULTS, **PRESETS[preset], **given}
-    check_csw_use(opts["csw"], given)
     opts["csw_margin"] = csw_margin_for(opts["cost"], opts["csw_margin"])
     if "auto" not in (opts["dmin"], opts["dmax"]) and opts["dmin"] > opts["dmax"]:
         raise OptionError("dmin", f"dmin ({opts['dmin']}) must not exceed dmax "
                                   f"({opts['dmax']})")
+    check_acts(opts, given)
     check_sgm_use(opts, given)
     stages = Stages(**{k: opts.pop(k) for k in OFF})
     range_source = "given" if {"dmin", "dmax"} & set(given) else \
@@ -438,22 +438,40 @@ def csw_margin_for(cost, given=None):
     return DEFAULT_CSW_MARGIN[cost] if given is None else given
 
 
-def check_csw_use(csw, given):
-    """Refuse an option that would do nothing: the rule, tau or the margin without CSW."""
-    for name in ("csw_rule", "tau", "csw_margin"):
-        if not csw and given.get(name) is not None:
-            raise OptionError(name, f"{name} applies only with CSW on; add csw=True (--csw) "
-                                    f"or drop {name}")
+# Options that act only with another setting: name -> (whether it acts, given every
+# resolved option; what it needs; what to add).  One given that would do nothing is
+# refused rather than ignored: a user who forgot --csw, or gave a census window to SAD,
+# would otherwise get a different match than the one asked for.
+_CSW = (lambda o: o["csw"], "CSW on", "csw=True (--csw)")
+_SGM = (lambda o: o["aggregate"] == "sgm", "aggregate='sgm' (--aggregate sgm)", "it")
+_CENSUS = (lambda o: o["cost"] == "census", "cost='census' (--cost census)", "it")
+ACTS_ONLY_WITH = {
+    "csw_rule": _CSW, "tau": _CSW, "csw_margin": _CSW,
+    "sgm_paths": _SGM, "sgm_p1": _SGM, "sgm_p2": _SGM, "sgm_narrow": _SGM,
+    "census_window": _CENSUS, "census_pattern": _CENSUS,
+    "speckle_range": (lambda o: o["speckle_size"] > 0, "a speckle_size above 0",
+                      "--speckle-size"),
+    "prefilter_cap": (lambda o: o["prefilter"] == "xsobel" or
+                      o["texture_threshold"] is not None,
+                      "prefilter='xsobel' (--prefilter xsobel) or a texture_threshold",
+                      "one"),
+}
+
+
+def check_acts(opts, given):
+    """Refuse a given option that would do nothing (ACTS_ONLY_WITH), unless it is given
+    its default, which changes nothing either way."""
+    for name, (acts, needs, fix) in ACTS_ONLY_WITH.items():
+        if given.get(name, OPTIONS[name].default) != OPTIONS[name].default and \
+                not acts(opts):
+            raise OptionError(name, f"{name} applies only with {needs}; add {fix} or drop "
+                                    f"{name}")
 
 
 def check_sgm_use(opts, given):
     """Refuse what semi-global matching can't take: CSW (its skips are local matching's),
-    the window engine, penalties without it, or P1 above P2."""
+    the window engine, or P1 above P2."""
     if opts["aggregate"] != "sgm":
-        for name in ("sgm_paths", "sgm_p1", "sgm_p2", "sgm_narrow"):
-            if name in given and given[name] != OPTIONS[name].default:
-                raise OptionError(name, f"{name} applies only with aggregate='sgm' "
-                                        f"(--aggregate sgm); add it or drop {name}")
         return
     if opts["csw"]:
         raise OptionError("csw", "CSW skips candidates of local matching; semi-global "

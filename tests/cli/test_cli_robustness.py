@@ -225,6 +225,8 @@ def test_16_bit_colour_keeps_its_precision(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["--tau", "100"], "only with CSW"),
     (["--csw-rule", "unique"], "csw_rule applies only with CSW"),
+    (["--preset", "raw", "--census-window", "7"], "census_window applies only"),
+    (["--speckle-size", "0", "--speckle-range", "3"], "speckle_range applies only"),
     (["--csw", "--tau", "-5"], ">= 0"),
 ])
 def test_options_that_would_do_nothing_are_refused(pair_files, tmp_path, args, message):

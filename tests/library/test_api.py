@@ -74,6 +74,10 @@ def test_colour_and_paths_are_converted_like_the_cli(small_scene, pair_files, tm
 @pytest.mark.parametrize("kwargs, message", [
     (dict(tau=100), "only with CSW"),
     (dict(csw_rule="unique"), "only with CSW"),
+    (dict(preset="raw", census_window=7), "census_window applies only with cost='census'"),
+    (dict(preset="accurate", speckle_size=0, speckle_range=3), "speckle_range applies only"),
+    (dict(preset="raw", prefilter_cap=20), "prefilter_cap applies only"),
+    (dict(preset="accurate", sgm_paths=8), "sgm_paths applies only"),
     (dict(csw=True, tau=-5), ">= 0"),
     (dict(csw=True, tau="sometimes"), "not a number"),
     (dict(engine="gpu"), "engine must be one of"),
@@ -83,6 +87,18 @@ def test_colour_and_paths_are_converted_like_the_cli(small_scene, pair_files, tm
 def test_bad_options_raise_value_error(small_scene, kwargs, message):
     with pytest.raises(ValueError, match=message):
         csw.match(small_scene[0], small_scene[1], **kwargs)
+
+
+def test_an_option_given_its_default_passes_where_it_would_do_nothing(small_scene):
+    """Refused only when it would change the match the user asked for: a default given
+    (a script passing every option) changes nothing either way."""
+    plain = csw.match(small_scene[0], small_scene[1], dmax=16, preset="raw")
+    for name in ("census_window", "census_pattern", "speckle_range", "prefilter_cap",
+                 "sgm_paths", "csw_rule"):
+        default = params.OPTIONS[name].default
+        got = csw.match(small_scene[0], small_scene[1], dmax=16, preset="raw",
+                        **{name: default})
+        np.testing.assert_array_equal(got.disparity, plain.disparity, err_msg=name)
 
 
 def test_unknown_option_is_a_type_error(small_scene):

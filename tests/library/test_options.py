@@ -24,7 +24,8 @@ RIGHT = np.roll(LEFT, -2, axis=1)
     (dict(uniqueness_ratio="off"), "uniqueness_ratio", None),
     (dict(texture_threshold="OFF"), "texture_threshold", None),
     (dict(median="3"), "median", 3), (dict(window=9.0), "window", 9),
-    (dict(speckle_range="1.5"), "speckle_range", 1.5), (dict(cost="CENSUS"), "cost", "census"),
+    (dict(speckle_size=50, speckle_range="1.5"), "speckle_range", 1.5),
+    (dict(cost="CENSUS"), "cost", "census"),
     (dict(csw=True, tau="None"), "tau", math.inf), (dict(csw=True, tau=12), "tau", 12.0),
     (dict(csw=True, csw_rule="unique", csw_margin="20"), "csw_margin", 20),
 ])
