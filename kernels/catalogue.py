@@ -150,8 +150,9 @@ def aggregated_max(cost, compared, bits, window):
     a census code's bits or None, the window's side): the largest window cost, but for a
     Hamming cost whose largest lies in 256..510, 255, every cost above it truncated to it.
     Its slab then holds bytes (cost_type), half the costs' memory traffic: a KITTI
-    match took 6% less time.  Only costs worse than half the bits differing change:
-    worse than two unrelated patches', which differ in half their bits."""
+    match took 3-4% less time (docs/engines.md).  Only costs with more than half the
+    bits differing change: worse than two unrelated patches', which differ in half
+    their bits."""
     largest = cost.per_pixel(compared, bits) * window * window
     return 255 if cost.worker == "shd" and 255 < largest <= 510 else largest
 
