@@ -127,6 +127,17 @@ def _make(cost, cost_type, acc, negative, banded):
     # is read at run time, and the range's length then takes two divisions a pixel).
     sum_line, cost_line = 64 // np.dtype(acc).itemsize, 64 // np.dtype(cost_type).itemsize
 
+    # Only a byte slab's window costs may pass its c_max, where catalogue.aggregated_max
+    # truncates them; a wider slab stores each as it is, with no test a cost.
+    truncates = np.dtype(cost_type).itemsize < np.dtype(acc).itemsize
+
+    @njit(**INLINE)
+    def stored(value, cap):
+        """A window cost (acc) as the slab holds it: at most cap where it may pass it."""
+        if truncates:
+            return cost_type(min(value, cap))
+        return cost_type(value)
+
     @njit(**SERIAL)
     def psi(a, b):
         """As the fast engine's: in the pixels' narrow lanes."""
@@ -279,7 +290,7 @@ def _make(cost, cost_type, acc, negative, banded):
         ask_to_write says."""
         width, slots = out.shape
         ndisp = col_sums.shape[1]
-        cap = acc(cmax)  # costs above c_max are truncated to it (catalogue.aggregated_max)
+        cap = acc(cmax)  # stored's
         previous = -1
         for x in range(x0, x1):
             ask_to_write(next_costs, next_sums, x, costs_too, sums_too)
@@ -310,7 +321,7 @@ def _make(cost, cost_type, acc, negative, banded):
             # prove non-negative is tested for wraparound at every access.
             source, target = row_sums[head:], c[head:]
             for k in range(tail - head):
-                target[k] = cost_type(min(source[k], cap))
+                target[k] = stored(source[k], cap)
             beyond = c[tail:]
             for k in range(slots - tail):
                 beyond[k] = cmax
@@ -338,7 +349,7 @@ def _make(cost, cost_type, acc, negative, banded):
         # its real disparities are the first ``slots``, the others cost pad_cost.
         real = ndisp if banded else sc[SC.slots]
         pad_cost = cost_type(sc[SC.pad_cost])
-        cap = acc(sc[SC.cmax])  # costs above c_max are truncated to it (aggregated_max)
+        cap = acc(sc[SC.cmax])  # stored's
         add = sc[SC.add]
         p1, p2, never = acc(sc[SC.p1]), acc(sc[SC.p2]), acc(sc[SC.never])
         x0, x1 = sc[SC.x0], sc[SC.x1]
@@ -431,7 +442,7 @@ def _make(cost, cost_type, acc, negative, banded):
                     for k in range(ndisp):
                         v = acc(row_sums[k] + entering[k] - sub[k] * keep)
                         row_sums[k] = v
-                        c[k] = cost_type(min(v, cap)) if lo <= k < n else \
+                        c[k] = stored(v, cap) if lo <= k < n else \
                             (cmax if k < real else pad_cost)
                 vertical_row(costs, sums, state, mins, starts, moved, i, y, direction,
                              band_y0, x0, x1, add, p1, p2, never)
