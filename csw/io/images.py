@@ -82,19 +82,19 @@ def max_pixels():
     return limit
 
 
-def check_pixels(shape, path, striped=False, stripes=False):
+def check_pixels(shape, path, striped=False, can_stripe=False):
     """ImageError when an image of ``shape`` (H, W), as its header declares it, is over
     the pixel limit: a hostile or mistaken header must not start a run that allocates
     or writes without bound.  striped: the user asked for a striped match with a memory
-    limit, which bounds its memory, so the limit does not apply.  stripes: the caller
-    could match it so (a pair's match), and the message says how."""
+    limit, which bounds its memory, so the limit does not apply.  can_stripe: the
+    caller could match it so (a pair's match), and the message says how."""
     height, width = (int(n) for n in shape[:2])
     limit = max_pixels()
     if height * width > limit and not striped:
         raise ImageError(f"{path}: the image is {width}x{height}, {height * width} pixels, "
                          f"more than the safety limit of {limit}; set CSW_MAX_PIXELS to a "
                          "larger number" + (", or give a memory limit (--memory-limit) to "
-                                            "match it in stripes" if stripes else ""))
+                                            "match it in stripes" if can_stripe else ""))
 
 
 def read_image(path):

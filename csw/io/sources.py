@@ -37,11 +37,11 @@ from .images import (
 )
 
 
-def open_source(image, name="image", probe=True, striped=False, stripes=False):
+def open_source(image, name="image", probe=True, striped=False, can_stripe=False):
     """A row source for a path or an array; ImageError, one line, when unusable.  The
     file is checked now (header, the pixel limit, pixel type, and with ``probe`` one row
     decoded) so that a bad input fails before any work.  striped: the caller matches in
-    stripes under a memory limit the user gave; stripes: it could (see
+    stripes under a memory limit the user gave; can_stripe: it could (see
     csw.io.images.check_pixels)."""
     if isinstance(image, (str, Path)):
         path = Path(image)
@@ -59,7 +59,7 @@ def open_source(image, name="image", probe=True, striped=False, stripes=False):
         if min(source.shape) < 1:
             raise ImageError(f"{path}: the image is empty ({source.shape[1]}x"
                              f"{source.shape[0]})")
-        check_pixels(source.shape, path, striped, stripes)
+        check_pixels(source.shape, path, striped, can_stripe)
     else:
         source = ArraySource(image, name)
     if probe:

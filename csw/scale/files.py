@@ -89,7 +89,7 @@ def match_files(left, right, output, *, confidence=None, preview=None, cost_map=
     _check_rig_options(rig, calib, frame)
     try:
         shape = open_source(left, "left", probe=False, striped=memory_limit is not None,
-                            stripes=True).shape
+                            can_stripe=True).shape
     except ImageError as exc:
         exc.option = "left"
         raise

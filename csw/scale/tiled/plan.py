@@ -150,7 +150,7 @@ def too_big_for_whole(left, config, memory_limit=None):
     than ``memory_limit`` (default: DEFAULT_MEMORY_LIMIT), by the stripes' memory model
     for one stripe the image's height; reads only the header of ``left`` (a path)."""
     memory_limit = DEFAULT_MEMORY_LIMIT if memory_limit is None else memory_limit
-    source = open_source(left, "left", probe=False, stripes=True)
+    source = open_source(left, "left", probe=False, can_stripe=True)
     height, width = source.shape
     config = assumed_range(config, width)  # not known yet: csw's one stand-in
     whole = plan(height, width, config, stripe_rows=height, colour=source.colour)

@@ -121,7 +121,7 @@ def match_tiled(left, right, output, *, confidence=None, preview=None, memory_li
         raise ValueError("on a cluster, give left and right as paths the workers can read")
     limit = parse_size(memory_limit) if memory_limit is not None else None
     striped = memory_limit is not None or stripe_rows is not None  # the user's word
-    left, right = (open_source(image, side, striped=striped, stripes=True)
+    left, right = (open_source(image, side, striped=striped, can_stripe=True)
                    for image, side in ((left, "left"), (right, "right")))
     height, width = left.shape
     if alone:
